@@ -1,0 +1,360 @@
+"""The block vocabulary: a block type declares ports, parameters, states and buffers, and three
+plain functions (`derive`, `output`, `update`) that bind their arguments by name.
+
+A block type declares and never runs; the graph layer reads these declarations to validate
+patches, schedule the graph, generate the kernel and run the reference interpreter.
+"""
+import ast
+import collections
+import inspect
+import re
+import textwrap
+
+import numpy as np
+
+RESERVED = ("t", "fs")
+
+
+class BlockDefinitionError(TypeError):
+    """A block type is malformed; raised when its class is defined (module import time)."""
+
+
+class _Declaration:
+    attr = None  # the attribute name on the class, set by Block.__init_subclass__
+
+    def __set_name__(self, owner, name):
+        self.attr = name
+
+
+class In(_Declaration):
+    """An input port; `name` is its public name in patches when the attribute name differs."""
+
+    def __init__(self, name=None, doc=""):
+        self._name = name
+        self.doc = doc
+
+    @property
+    def name(self):
+        return self._name or self.attr
+
+
+class Out(_Declaration):
+    """An output port; `name` is its public name in patches when the attribute name differs."""
+
+    def __init__(self, name=None, doc=""):
+        self._name = name
+        self.doc = doc
+
+    @property
+    def name(self):
+        return self._name or self.attr
+
+
+class Param(_Declaration):
+    """A parameter: default, SI unit, inclusive `minimum`/`maximum`, exclusive `above`/`below`.
+
+    The kind follows the default: a float is a number (live unless `live=False`: it can be set
+    while playing and is also an input port), an int an integer, a bool a flag, a list or tuple a
+    list of numbers, a str one of `choices` (or any string when no choices are given). Only
+    numbers can be live.
+    """
+
+    def __init__(self, default, unit="", minimum=None, maximum=None, above=None, below=None,
+                 live=None, choices=None, doc="", min_items=None, max_items=None):
+        self.default = default
+        self.unit = unit
+        self.minimum, self.maximum, self.above, self.below = minimum, maximum, above, below
+        self.choices = tuple(choices) if choices is not None else None
+        self.doc = doc
+        self.min_items, self.max_items = min_items, max_items
+        self.kind = _kind_of(default)
+        if live is None:
+            live = self.kind == "number"
+        self.live = bool(live)
+
+    @property
+    def name(self):
+        return self.attr
+
+    def schema(self):
+        """The JSON Schema of this parameter's value in a patch."""
+        bounds = {}
+        for key, value in (("minimum", self.minimum), ("maximum", self.maximum),
+                           ("exclusiveMinimum", self.above), ("exclusiveMaximum", self.below)):
+            if value is not None:
+                bounds[key] = value
+        if self.kind == "number":
+            s = {"type": "number", **bounds}
+        elif self.kind == "integer":
+            s = {"type": "integer", **bounds}
+        elif self.kind == "boolean":
+            s = {"type": "boolean"}
+        elif self.kind == "list":
+            s = {"type": "array", "items": {"type": "number", **bounds}}
+            if self.min_items is not None:
+                s["minItems"] = self.min_items
+            if self.max_items is not None:
+                s["maxItems"] = self.max_items
+        elif self.choices:
+            s = {"enum": list(self.choices)}
+        else:
+            s = {"type": "string"}
+        desc = self.doc or ""
+        if self.unit:
+            desc = f"{desc} [{self.unit}]".strip()
+        if self.live:
+            desc = f"{desc} (live)".strip()
+        if desc:
+            s["description"] = desc
+        s["default"] = list(self.default) if self.kind == "list" else self.default
+        return s
+
+
+class State(_Declaration):
+    """A float64 state variable: `update` returns its next value (in declaration order).
+
+    `initial` is a number or `initial(p, fs) -> number` (e.g. a noise seed).
+    """
+
+    def __init__(self, initial=0.0, doc=""):
+        self.initial = initial if callable(initial) else float(initial)
+        self.doc = doc
+
+    def value(self, p, fs):
+        return float(self.initial(p, fs)) if callable(self.initial) else self.initial
+
+    @property
+    def name(self):
+        return self.attr
+
+
+class Buffer(_Declaration):
+    """A float64 ring buffer of at least `size` samples (an int, or `size(p, fs) -> int`).
+
+    Its length is rounded up to a power of two; functions index it with the kernel's shared
+    sample counter `t` and the literal mask bound as `<name>_mask`: `buf[(t - d) & buf_mask]`.
+    """
+
+    def __init__(self, size, doc=""):
+        self.size = size
+        self.doc = doc
+
+    @property
+    def name(self):
+        return self.attr
+
+    def length(self, p, fs):
+        n = self.size(p, fs) if callable(self.size) else self.size
+        n = max(1, int(n))
+        return 1 << (n - 1).bit_length()
+
+
+def _kind_of(default):
+    if isinstance(default, bool):
+        return "boolean"
+    if isinstance(default, int):
+        return "integer"
+    if isinstance(default, float):
+        return "number"
+    if isinstance(default, (list, tuple, np.ndarray)):
+        return "list"
+    if isinstance(default, str):
+        return "string"
+    raise BlockDefinitionError(f"unsupported parameter default {default!r}")
+
+
+def _snake(name):
+    return re.sub(r"(?<=[a-z0-9])([A-Z])", r"_\1", name).lower()
+
+
+def _arguments(fn):
+    return tuple(inspect.signature(fn).parameters)
+
+
+def _attributes_read(fn, argname):
+    """Names `argname.X` read in fn's source: which parameters `derive` depends on."""
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    except (OSError, TypeError, SyntaxError):
+        return None
+    return {node.attr for node in ast.walk(tree)
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+            and node.value.id == argname}
+
+
+class Block:
+    """Base class of every block type. Subclass it with `class Delay(Block, name="delay")`."""
+
+    type_name = None
+    inputs = ()      # In declarations, in order
+    outputs = ()     # Out declarations, in order
+    params = {}      # name -> Param
+    states = ()      # State declarations, in order
+    buffers = ()     # Buffer declarations, in order
+    derive = None
+    output = None
+    update = None
+
+    def __init_subclass__(cls, name=None, abstract=False, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if abstract:
+            return
+        cls.type_name = name or cls.__dict__.get("type_name") or _snake(cls.__name__)
+        decls = {}
+        for klass in reversed(cls.__mro__):
+            for attr, value in vars(klass).items():
+                if isinstance(value, _Declaration):
+                    decls[attr] = value
+        cls.inputs = tuple(d for d in decls.values() if isinstance(d, In))
+        cls.outputs = tuple(d for d in decls.values() if isinstance(d, Out))
+        cls.params = {d.attr: d for d in decls.values() if isinstance(d, Param)}
+        cls.states = tuple(d for d in decls.values() if isinstance(d, State))
+        cls.buffers = tuple(d for d in decls.values() if isinstance(d, Buffer))
+        _check_definition(cls)
+
+    # -- helpers used by the graph layer -------------------------------------------------------
+    @classmethod
+    def ports(cls, values):
+        """(inputs, outputs) of a block with these parameter values; dynamic blocks override."""
+        return cls.inputs, cls.outputs
+
+    @classmethod
+    def check(cls, p, fs):
+        """Cross-parameter checks beyond the schema: yield (param name or None, message)."""
+        return ()
+
+    @classmethod
+    def param_tuple(cls):
+        return collections.namedtuple(f"{cls.__name__}Params", list(cls.params))
+
+    @classmethod
+    def default_params(cls):
+        return {n: _normalise(p.default) for n, p in cls.params.items()}
+
+    @classmethod
+    def schema(cls):
+        props = {"type": {"const": cls.type_name}}
+        props.update({n: p.schema() for n, p in cls.params.items()})
+        s = {"type": "object", "properties": props, "required": ["type"],
+             "additionalProperties": False}
+        doc = (cls.__doc__ or "").strip().splitlines()
+        if doc:
+            s["description"] = doc[0]
+        return s
+
+    @classmethod
+    def feedthrough(cls):
+        """Public input names that `output` (or a per-sample `derive`) reads in the same sample."""
+        args = set(_arguments(cls.output)) if cls.output else set()
+        names = {i.name for i in cls.inputs if i.attr in args}
+        names |= {n for n, p in cls.params.items() if p.live and n in args}
+        return names | {n for n in cls.derive_reads if cls.params[n].live}
+
+    @classmethod
+    def coefficient_names(cls, fs=44100.0):
+        if cls.derive is None:
+            return ()
+        p = cls.param_tuple()(**cls.default_params())
+        return tuple(cls.derive(p, fs))
+
+
+def _normalise(value):
+    if isinstance(value, (list, tuple)):
+        return np.asarray(value, dtype=np.float64)
+    return value
+
+
+def _check_definition(cls):
+    where = f"block type {cls.__name__} ({cls.type_name!r})"
+
+    def fail(msg):
+        raise BlockDefinitionError(f"{where}: {msg}")
+
+    if not re.fullmatch(r"[a-z][a-z0-9_]*", cls.type_name):
+        fail("type name must be snake_case")
+    public = [d.name for d in cls.inputs + cls.outputs] + list(cls.params)
+    dup = {n for n in public if public.count(n) > 1}
+    if dup:
+        fail(f"name(s) {sorted(dup)} used for more than one port or parameter")
+    for d in cls.inputs + cls.outputs:
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", d.name):
+            fail(f"port name {d.name!r} is not an identifier")
+    internal = ([d.attr for d in cls.inputs + cls.outputs + cls.states + cls.buffers]
+                + list(cls.params) + [b.attr + "_mask" for b in cls.buffers])
+    clash = set(internal) & set(RESERVED)
+    if clash:
+        fail(f"{sorted(clash)} are reserved argument names")
+    for n, p in cls.params.items():
+        if p.kind == "string" and p.choices and p.default not in p.choices:
+            fail(f"parameter {n!r}: default {p.default!r} is not one of {p.choices}")
+        if p.live and p.kind != "number":
+            fail(f"parameter {n!r}: only float parameters can be live")
+        values = list(p.default) if p.kind == "list" else [p.default]
+        if p.kind in ("number", "integer", "list"):
+            for v in values:
+                if ((p.minimum is not None and v < p.minimum) or (p.maximum is not None and v > p.maximum)
+                        or (p.above is not None and v <= p.above) or (p.below is not None and v >= p.below)):
+                    fail(f"parameter {n!r}: default {p.default!r} is outside its range")
+    for fname in ("derive", "output", "update"):
+        fn = cls.__dict__.get(fname)
+        if fn is not None and not isinstance(fn, staticmethod):
+            fail(f"{fname} must be a @staticmethod")
+    if cls.outputs and cls.output is None:
+        fail("declares outputs but no output()")
+    if cls.output is not None and not cls.outputs:
+        fail("defines output() but declares no Out port")
+    if cls.states and cls.update is None:
+        fail("declares states but no update() to advance them")
+    # derive: called once with the defaults here, so a broken derive fails at import time
+    cls.derive_reads = frozenset()
+    coefs = ()
+    if cls.derive is not None:
+        if _arguments(cls.derive) != ("p", "fs"):
+            fail("derive must take exactly (p, fs)")
+        reads = _attributes_read(cls.derive, "p")
+        unknown = (reads or set()) - set(cls.params)
+        if unknown:
+            fail(f"derive reads unknown parameter(s) {sorted(unknown)}")
+        cls.derive_reads = frozenset(reads if reads is not None else cls.params)
+        try:
+            coefs = tuple(cls.coefficient_names())
+        except Exception as exc:  # noqa: BLE001 - reported as a definition error
+            fail(f"derive fails on the default parameters: {exc!r}")
+        bad = [c for c in coefs if not isinstance(c, str) or not c.isidentifier()]
+        if bad:
+            fail(f"derive must return a dict with identifier keys, got {bad}")
+        clash = set(coefs) & (set(internal) | set(RESERVED))
+        if clash:
+            fail(f"coefficient(s) {sorted(clash)} clash with other names")
+    known = set(internal) | set(coefs) | set(RESERVED)
+    out_attrs = {o.attr for o in cls.outputs}
+    for fname in ("output", "update"):
+        fn = getattr(cls, fname)
+        if fn is None:
+            continue
+        for a in _arguments(fn):
+            allowed = known - out_attrs if fname == "output" else known
+            if a not in allowed:
+                fail(f"{fname}() argument {a!r} is not a port, parameter, state, buffer or coefficient")
+
+
+def helper(fn):
+    """Mark a plain function that block functions call, so the compiled kernel can call it too.
+
+    In Python it stays the same function (the reference interpreter calls it as is).
+    """
+    try:
+        from numba.extending import register_jitable
+    except ImportError:  # numba missing: only the reference interpreter can run
+        return fn
+    return register_jitable(fn)
+
+
+def block_equation(cls):
+    """The one-line docstring: the difference equation and its reference."""
+    doc = (cls.__doc__ or "").strip().splitlines()
+    return doc[0] if doc else ""
+
+
+__all__ = ["Block", "In", "Out", "Param", "State", "Buffer", "BlockDefinitionError", "block_equation",
+           "helper"]

@@ -1,0 +1,78 @@
+"""The reference interpreter: walks the scheduled graph and calls every block's functions from
+plain Python, sample by sample. It shares the plan (which value feeds which argument) with the
+compiler but no generated code, so it is the specification the compiled kernel is tested against.
+"""
+from .program import Program
+
+
+class Interpreter:
+    def __init__(self, prog: Program):
+        self.prog = prog
+        self.compile_seconds = 0.0
+        self._params = {bp.index: bp.cls.param_tuple() for bp in prog.plans}
+
+    def _value(self, b, bp, t, outs, derived):
+        kind = b[0]
+        p = self.prog
+        if kind == "t":
+            return t
+        if kind == "value":
+            return b[1]
+        if kind == "sum":
+            if not b[1]:
+                return 0.0
+            total = outs[b[1][0]]
+            for src in b[1][1:]:
+                total = total + outs[src]
+            return total
+        if kind == "out":
+            return outs[(b[1], b[2])]
+        if kind == "own":
+            return outs[(bp.name, b[1])]
+        if kind == "live":
+            return float(p.live[b[1]])
+        if kind == "coef":
+            v = float(p.coef[b[1]])
+            return int(v) if b[2] == "int" else (v != 0.0 if b[2] == "bool" else v)
+        if kind == "dcoef":
+            return derived[bp.index][b[1]]
+        if kind == "state":
+            return float(p.state[b[1]])
+        if kind == "buffer":
+            return p.buffers[b[1]]
+        if kind == "array":
+            return p.arrays[b[1]]
+        if kind == "mask":
+            return b[1]
+        raise ValueError(f"unknown binding {b!r}")
+
+    def run(self, t0, rec):
+        p = self.prog
+        val = self._value
+        for i in range(rec.shape[0]):
+            t = t0 + i
+            outs, derived = {}, {}
+            for bp in p.plans:
+                if bp.coef_mode == "per_sample":
+                    args = [val(b, bp, t, outs, derived) for b in bp.derive_args.values()]
+                    derived[bp.index] = bp.cls.derive(self._params[bp.index](*args), p.fs)
+                if bp.cls.output is None:
+                    continue
+                result = bp.cls.output(*[val(b, bp, t, outs, derived) for b in bp.output_args])
+                if len(bp.cls.outputs) == 1:
+                    result = (result,)
+                for o, v in zip(bp.cls.outputs, result):
+                    outs[(bp.name, o.attr)] = v
+            for k, (_, b) in enumerate(p.records):
+                rec[i, k] = val(b, None, t, outs, derived)
+            new_states = []
+            for bp in p.plans:
+                if bp.cls.update is None:
+                    continue
+                result = bp.cls.update(*[val(b, bp, t, outs, derived) for b in bp.update_args])
+                if bp.states:
+                    if len(bp.states) == 1:
+                        result = (result,)
+                    new_states.extend(zip(bp.states, result))
+            for slot, v in new_states:
+                p.state[slot] = v

@@ -1,0 +1,363 @@
+"""Loading a patch: YAML with lines → plugins → JSON Schema → block checks → wiring → schedule.
+
+Every problem found is collected and raised together as one PatchError, so `hapticgraph check`
+reports all of them at once.
+"""
+import difflib
+import os
+import re
+
+import jsonschema
+import yaml
+
+from .errors import Collector, PatchError
+from .registry import Registry, RegistryError
+from .schedule import schedule
+from .schema import patch_schema
+from .source import LDict, LList, line_of, load_yaml
+
+DEFAULT_RATE = 44100.0
+_ENDPOINT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)(?:\[([-0-9 ,]*)\])?\.([A-Za-z_][A-Za-z0-9_]*)\s*")
+
+
+class Endpoint:
+    """`block.port` or `block[i, j].port` in a connection."""
+
+    __slots__ = ("block", "index", "port")
+
+    def __init__(self, block, index, port):
+        self.block, self.index, self.port = block, index, port
+
+    def __str__(self):
+        idx = "" if self.index is None else "[" + ", ".join(map(str, self.index)) + "]"
+        return f"{self.block}{idx}.{self.port}"
+
+    @classmethod
+    def parse(cls, text):
+        m = _ENDPOINT.fullmatch(text)
+        if not m:
+            return None
+        index = None
+        if m.group(2) is not None:
+            try:
+                index = tuple(int(v) for v in m.group(2).split(","))
+            except ValueError:
+                return None
+        return cls(m.group(1), index, m.group(3))
+
+
+class Connection:
+    __slots__ = ("src", "dst", "line")
+
+    def __init__(self, src, dst, line):
+        self.src, self.dst, self.line = src, dst, line
+
+    def __str__(self):
+        return f"{self.src} -> {self.dst}"
+
+
+class Instance:
+    """One block of a patch: its type, parameter values (defaults filled in) and ports."""
+
+    def __init__(self, name, cls, values, line, lines, index):
+        self.name, self.cls, self.values, self.line, self.lines, self.index = (
+            name, cls, values, line, lines, index)
+        self.inputs, self.outputs = cls.ports(values)
+
+    @property
+    def params(self):
+        return self.cls.param_tuple()(**self.values)
+
+    def input(self, name):
+        """The In port (or live parameter name) called `name`, or None."""
+        for port in self.inputs:
+            if port.name == name:
+                return port
+        param = self.cls.params.get(name)
+        return param if param is not None and param.live else None
+
+    def output(self, name):
+        for port in self.outputs:
+            if port.name == name:
+                return port
+        return None
+
+    def line_of(self, key):
+        return self.lines.get(key, self.line)
+
+
+class Patch:
+    """A checked patch: blocks, connections, devices and the schedule (block names, in order)."""
+
+    def __init__(self, file, doc, name, rate, blocks, connections, devices, order, registry):
+        self.file, self.doc, self.name, self.rate = file, doc, name, rate
+        self.blocks, self.connections, self.devices = blocks, connections, devices
+        self.order, self.registry = order, registry
+
+    def __repr__(self):
+        return f"<Patch {self.name!r} from {self.file}: {len(self.blocks)} blocks at {self.rate:g} Hz>"
+
+
+def load(path, overrides=(), registry=None):
+    """Load and check a patch file; raise PatchError listing every problem found."""
+    path = os.fspath(path)
+    doc, problems = load_yaml(path)
+    if doc is None:
+        problems.raise_if_any()
+    if not isinstance(doc, LDict):
+        problems.add(getattr(doc, "line", 1), "a patch is a mapping with keys hapticgraph: 1, blocks: and connect:")
+        problems.raise_if_any()
+    if doc.get("hapticgraph") != 1:
+        where = doc.lines.get("hapticgraph", 1)
+        problems.add(where, "the first key must be `hapticgraph: 1` (the patch format version)"
+                     if "hapticgraph" not in doc else
+                     f"unsupported patch format version {doc['hapticgraph']!r}; this hapticgraph reads version 1")
+        problems.raise_if_any()
+
+    registry = registry or Registry()
+    plugins = doc.get("plugins")
+    if isinstance(plugins, LList):
+        for spec, line in zip(plugins, plugins.lines):
+            if isinstance(spec, str):
+                try:
+                    registry.load_plugin(spec, os.path.dirname(os.path.abspath(path)))
+                except RegistryError as exc:
+                    problems.add(line, str(exc))
+    _apply_overrides(doc, overrides, problems)
+    _check_schema(doc, registry, problems)
+    rate = float(doc.get("rate", DEFAULT_RATE)) if isinstance(doc.get("rate"), (int, float)) else DEFAULT_RATE
+    blocks = _instances(doc, registry, rate, problems)
+    connections = _connections(doc, blocks, problems)
+    audio = [b for b in blocks.values() if getattr(b.cls, "audio_sink", False)]
+    for extra in audio[1:]:
+        problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
+                                 f"(the first is {audio[0].name!r})")
+    devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
+    problems.raise_if_any()
+    order = schedule(blocks, connections, problems)
+    problems.raise_if_any()
+    name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
+    return Patch(path, doc, name, rate, blocks, connections, devices, order, registry)
+
+
+def _apply_overrides(doc, overrides, problems):
+    """`--set BLOCK.PARAM=VALUE`: the value is read as a YAML scalar and checked like the file's."""
+    blocks = doc.get("blocks")
+    for text in overrides:
+        target, sep, raw = text.partition("=")
+        block, dot, param = target.strip().partition(".")
+        if not sep or not dot or not block or not param:
+            problems.add(1, f"--set {text!r}: expected BLOCK.PARAM=VALUE")
+            continue
+        if not isinstance(blocks, LDict) or not isinstance(blocks.get(block), LDict):
+            problems.add(1, f"--set {text!r}: the patch has no block named {block!r}")
+            continue
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            value = raw
+        if isinstance(value, list):
+            value = LList(value)
+            value.lines = [blocks[block].line] * len(value)
+        entry = blocks[block]
+        entry[param] = value
+        entry.lines.setdefault(param, entry.line)
+
+
+def _suggest(word, choices):
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _check_schema(doc, registry, problems):
+    blocks = doc.get("blocks")
+    skip_blocks = set()
+    if isinstance(blocks, LDict):
+        for name, spec in blocks.items():
+            line = blocks.lines[name]
+            if not isinstance(spec, LDict):
+                continue
+            kind = spec.get("type")
+            if kind is None:
+                problems.add(line, f"block {name!r}: no `type` (one of: {', '.join(sorted(registry.types))})")
+                skip_blocks.add(name)
+            elif kind not in registry.types:
+                problems.add(spec.lines.get("type", line),
+                             f"block {name!r}: unknown type {kind!r}{_suggest(str(kind), registry.types)}")
+                skip_blocks.add(name)
+            else:
+                cls = registry.types[kind]
+                for key in spec:
+                    if key != "type" and key not in cls.params:
+                        problems.add(spec.lines[key],
+                                     f"block {name!r} ({kind}): unknown parameter {key!r}"
+                                     f"{_suggest(key, cls.params)}")
+    validator = jsonschema.Draft202012Validator(patch_schema(registry))
+    for err in validator.iter_errors(doc):
+        path = list(err.absolute_path)
+        if len(path) >= 2 and path[0] == "blocks" and path[1] in skip_blocks:
+            continue
+        if err.validator == "additionalProperties" and len(path) == 2 and path[0] == "blocks":
+            continue  # unknown parameters, reported above with a suggestion
+        if err.validator in ("if", "allOf"):
+            continue
+        problems.add(line_of(doc, path), _describe(err, path, doc, registry))
+
+
+def _describe(err, path, doc, registry):
+    what = "patch"
+    if path and path[0] == "blocks" and len(path) >= 2:
+        spec = doc["blocks"].get(path[1])
+        kind = spec.get("type") if isinstance(spec, dict) else None
+        what = f"block {path[1]!r}" + (f" ({kind})" if kind else "")
+        if len(path) >= 3:
+            what += f": parameter {path[2]!r}"
+            cls = registry.types.get(kind)
+            unit = cls.params[path[2]].unit if cls and path[2] in cls.params else ""
+        else:
+            unit = ""
+    elif path and path[0] == "connect":
+        what = f"connection {err.instance!r}" if isinstance(err.instance, str) else "connect"
+    elif path:
+        what = ".".join(str(p) for p in path)
+        unit = ""
+    else:
+        unit = ""
+    v, s = err.instance, err.validator_value
+    unit = f" {unit}" if unit else ""
+    messages = {
+        "minimum": lambda: f"{v!r} is below the minimum {s!r}{unit}",
+        "maximum": lambda: f"{v!r} is above the maximum {s!r}{unit}",
+        "exclusiveMinimum": lambda: f"{v!r} must be greater than {s!r}{unit}",
+        "exclusiveMaximum": lambda: f"{v!r} must be less than {s!r}{unit}",
+        "type": lambda: f"{v!r} is not {'an' if s[0] in 'aeiou' else 'a'} {s}",
+        "enum": lambda: f"{v!r} is not one of {', '.join(map(repr, s))}",
+        "const": lambda: f"{v!r} must be {s!r}",
+        "minItems": lambda: f"needs at least {s} item(s), has {len(v)}",
+        "maxItems": lambda: f"takes at most {s} item(s), has {len(v)}",
+        "pattern": lambda: (f"cannot read {v!r}: write \"block.port -> block.port\""
+                            if path and path[0] == "connect" else f"{v!r} is not a valid name"),
+        "required": lambda: f"missing {', '.join(repr(r) for r in s if r not in v)}",
+        "additionalProperties": lambda: f"unknown key(s) {', '.join(repr(k) for k in v if k not in err.schema.get('properties', {}))}",
+        "minLength": lambda: "must not be empty",
+    }
+    make = messages.get(err.validator)
+    text = make() if make else err.message
+    if err.validator == "pattern" and path and path[0] == "connect":
+        return text
+    return f"{what}: {text}"
+
+
+def _instances(doc, registry, rate, problems):
+    blocks = doc.get("blocks")
+    out = {}
+    if not isinstance(blocks, LDict):
+        return out
+    for index, (name, spec) in enumerate(blocks.items()):
+        if not isinstance(spec, LDict) or spec.get("type") not in registry.types:
+            continue
+        cls = registry.types[spec["type"]]
+        values = cls.default_params()
+        ok = True
+        for key, param in cls.params.items():
+            if key in spec:
+                value = spec[key]
+                if not _valid(param, value):
+                    ok = False
+                    continue
+                values[key] = _coerce(param, value)
+        if not ok:
+            continue
+        inst = Instance(name, cls, values, blocks.lines[name], spec.lines, index)
+        try:
+            for param, message in cls.check(inst.params, rate):
+                problems.add(inst.line_of(param) if param else inst.line,
+                             f"block {name!r} ({cls.type_name})" + (f": parameter {param!r}" if param else "")
+                             + f": {message}")
+        except Exception as exc:  # noqa: BLE001 - a plugin's check must not crash the loader
+            problems.add(inst.line, f"block {name!r} ({cls.type_name}): its check failed: {exc!r}")
+        out[name] = inst
+    return out
+
+
+def _valid(param, value):
+    try:
+        jsonschema.validate(value, param.schema())
+        return True
+    except jsonschema.ValidationError:
+        return False
+
+
+def _coerce(param, value):
+    import numpy as np
+    if param.kind == "number":
+        return float(value)
+    if param.kind == "list":
+        return np.asarray(list(value), dtype=np.float64)
+    return value
+
+
+def _connections(doc, blocks, problems):
+    conns = doc.get("connect")
+    out = []
+    if not isinstance(conns, LList):
+        return out
+    names = doc.get("blocks") if isinstance(doc.get("blocks"), LDict) else {}
+    for text, line in zip(conns, conns.lines):
+        if not isinstance(text, str) or "->" not in text:
+            continue  # reported by the schema
+        left, _, right = text.partition("->")
+        src, dst = Endpoint.parse(left), Endpoint.parse(right)
+        if src is None or dst is None:
+            continue
+        ok = True
+        for end, role in ((src, "output"), (dst, "input")):
+            if end.block not in names:
+                problems.add(line, f"connection {text.strip()!r}: no block named {end.block!r}"
+                                   f"{_suggest(end.block, names)}")
+                ok = False
+                continue
+            inst = blocks.get(end.block)
+            if inst is None:
+                ok = False  # the block itself has a problem, reported already
+                continue
+            if not _check_endpoint(inst, end, role, text.strip(), line, problems):
+                ok = False
+        if ok:
+            out.append(Connection(src, dst, line))
+    return out
+
+
+def _check_endpoint(inst, end, role, text, line, problems):
+    cls = inst.cls
+    if end.index is not None:
+        check_cell = getattr(cls, "check_cell", None)
+        if check_cell is None:
+            problems.add(line, f"connection {text!r}: block {inst.name!r} ({cls.type_name}) has no cells "
+                               f"to index with [{', '.join(map(str, end.index))}]")
+            return False
+        message = check_cell(inst.values, end.index, end.port, role)
+        if message:
+            problems.add(line, f"connection {text!r}: {inst.name}[{', '.join(map(str, end.index))}]: {message}")
+            return False
+        return True
+    found = inst.output(end.port) if role == "output" else inst.input(end.port)
+    if found is not None:
+        return True
+    other = inst.input(end.port) if role == "output" else inst.output(end.port)
+    ports = [p.name for p in (inst.outputs if role == "output" else inst.inputs)]
+    if role == "input":
+        ports += [n for n, p in cls.params.items() if p.live]
+    if other is not None:
+        msg = f"{end.port!r} of block {inst.name!r} ({cls.type_name}) is an {'input' if role == 'output' else 'output'}, " \
+              f"it cannot be the {'source' if role == 'output' else 'destination'} of a connection"
+    elif role == "input" and end.port in cls.params:
+        msg = f"parameter {end.port!r} of block {inst.name!r} ({cls.type_name}) is not live, so it is not an input"
+    else:
+        msg = (f"block {inst.name!r} ({cls.type_name}) has no {role} {end.port!r}"
+               f"{_suggest(end.port, ports)}; its {role}s: {', '.join(ports) or 'none'}")
+    problems.add(line, f"connection {text!r}: {msg}")
+    return False
+
+
+__all__ = ["load", "Patch", "Instance", "Connection", "Endpoint", "PatchError", "Collector"]

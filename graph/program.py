@@ -1,0 +1,236 @@
+"""The runtime plan of a checked patch, shared by the compiler and the reference interpreter:
+where every function argument of every block comes from, and the arrays that hold state,
+live parameters, coefficients, buffers and recordings.
+
+A binding is a small tuple:
+  ("t",) ("fs",)                       the shared sample counter, the rate
+  ("sum", ((block, out_attr), ...))    an input: the sum of its connections (0.0 if none)
+  ("live", slot)                       an unconnected live parameter, read from `live`
+  ("value", v)                         a static value, baked in as a literal
+  ("array", i)                         a static array too long for a literal
+  ("coef", slot, kind)                 a coefficient re-derived at control rate (`coef` array)
+  ("dcoef", name)                      a coefficient derived every sample (a live input drives it)
+  ("state", slot) ("buffer", i) ("mask", m) ("own", out_attr)
+"""
+import numpy as np
+
+from ..blocks.core import _arguments
+
+MAX_LITERAL_ITEMS = 64
+
+
+class PlanError(Exception):
+    pass
+
+
+def _freeze(value):
+    """Lists become tuples of floats (literals), numpy scalars become Python scalars."""
+    if isinstance(value, np.ndarray):
+        return tuple(float(x) for x in value.ravel())
+    if isinstance(value, (list, tuple)):
+        return tuple(float(x) for x in value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    return value
+
+
+class BlockPlan:
+    """One block's part of the plan."""
+
+    def __init__(self, index, inst):
+        self.index, self.inst, self.cls, self.name = index, inst, inst.cls, inst.name
+        self.values = dict(inst.values)
+        self.inputs = {}          # public input name -> ((block, out_attr), ...)
+        self.live = {}            # live param -> slot
+        self.live_sources = {}    # connected live param -> sources
+        self.states = []          # slots
+        self.buffers = []         # indices into Program.buffers
+        self.coef_mode = None     # None | "literal" | "slot" | "per_sample"
+        self.coefs = {}
+        self.coef_slots = {}
+        self.output_args = ()
+        self.update_args = ()
+        self.derive_args = {}     # for per-sample derive: param -> binding
+
+    def params(self):
+        return self.cls.param_tuple()(**self.values)
+
+
+class Program:
+    """The plan of one patch: block plans in schedule order plus the runtime arrays."""
+
+    def __init__(self, patch, probes=()):
+        self.patch, self.rate = patch, float(patch.rate)
+        self.fs = self.rate
+        self.plans = [BlockPlan(i, patch.blocks[name]) for i, name in enumerate(patch.order)]
+        self.by_name = {bp.name: bp for bp in self.plans}
+        state, live, coef = [], [], []
+        self.buffers, self.arrays = [], []
+        for bp in self.plans:
+            self._connect(bp)
+        for bp in self.plans:
+            cls, p = bp.cls, bp.params()
+            for name, param in cls.params.items():
+                if param.live and name not in bp.live_sources:
+                    bp.live[name] = len(live)
+                    live.append(float(bp.values[name]))
+            for s in cls.states:
+                bp.states.append(len(state))
+                state.append(s.value(p, self.fs))
+            for b in cls.buffers:
+                bp.buffers.append(len(self.buffers))
+                self.buffers.append(np.zeros(b.length(p, self.fs)))
+            if cls.derive is not None:
+                live_read = {n for n in cls.derive_reads if cls.params[n].live}
+                if live_read & set(bp.live_sources):
+                    bp.coef_mode = "per_sample"
+                elif live_read:
+                    bp.coef_mode = "slot"
+                else:
+                    bp.coef_mode = "literal"
+                bp.coefs = {k: _freeze(v) for k, v in cls.derive(p, self.fs).items()}
+                if bp.coef_mode == "slot":
+                    for k, v in bp.coefs.items():
+                        if isinstance(v, tuple):
+                            bp.coefs[k] = self._array(v)
+                        else:
+                            bp.coef_slots[k] = len(coef)
+                            coef.append(float(v))
+        for bp in self.plans:
+            bp.output_args = self._bind(bp, cls_fn(bp.cls, "output"), "output")
+            bp.update_args = self._bind(bp, cls_fn(bp.cls, "update"), "update")
+            if bp.coef_mode == "per_sample":
+                bp.derive_args = {n: self._param_binding(bp, n, per_sample=True) for n in bp.cls.params}
+        self.state = np.array(state, dtype=np.float64)
+        self.live = np.array(live, dtype=np.float64)
+        self.coef = np.array(coef, dtype=np.float64)
+        self.records = []      # (label, binding)
+        self.channels = 0
+        for bp in self.plans:
+            if getattr(bp.cls, "audio_sink", False):
+                for port in bp.inst.inputs:
+                    self.records.append((f"{bp.name}.{port.name}", ("sum", bp.inputs.get(port.name, ()))))
+                self.channels = len(bp.inst.inputs)
+        for probe in probes:
+            self.records.append((probe, self.resolve_probe(probe)))
+
+    # -- wiring --------------------------------------------------------------------------------
+    def _connect(self, bp):
+        for c in self.patch.connections:
+            if c.dst.block != bp.name:
+                continue
+            src = self.patch.blocks[c.src.block]
+            source = (c.src.block, src.output(c.src.port).attr)
+            if c.dst.port in bp.cls.params:
+                bp.live_sources.setdefault(c.dst.port, []).append(source)
+            else:
+                bp.inputs.setdefault(c.dst.port, []).append(source)
+        bp.inputs = {k: tuple(v) for k, v in bp.inputs.items()}
+        bp.live_sources = {k: tuple(v) for k, v in bp.live_sources.items()}
+
+    def _array(self, values):
+        self.arrays.append(np.asarray(values, dtype=np.float64))
+        return ("array", len(self.arrays) - 1)
+
+    def _static(self, value):
+        value = _freeze(value)
+        if isinstance(value, tuple) and len(value) > MAX_LITERAL_ITEMS:
+            return self._array(value)
+        return ("value", value)
+
+    def _param_binding(self, bp, name, per_sample=False):
+        param = bp.cls.params[name]
+        if param.live:
+            if name in bp.live_sources:
+                return ("sum", bp.live_sources[name])
+            return ("live", bp.live[name])
+        return self._static(bp.values[name])
+
+    def _bind(self, bp, fn, which):
+        if fn is None:
+            return ()
+        cls = bp.cls
+        ports_in = {p.attr: p.name for p in bp.inst.inputs}
+        outs = {o.attr for o in cls.outputs}
+        states = {s.attr: bp.states[i] for i, s in enumerate(cls.states)}
+        buffers = {b.attr: bp.buffers[i] for i, b in enumerate(cls.buffers)}
+        out = []
+        for arg in _arguments(fn):
+            if arg == "t":
+                out.append(("t",))
+            elif arg == "fs":
+                out.append(("value", self.fs))
+            elif arg in ports_in:
+                out.append(("sum", bp.inputs.get(ports_in[arg], ())))
+            elif arg in cls.params:
+                out.append(self._param_binding(bp, arg))
+            elif arg in states:
+                out.append(("state", states[arg]))
+            elif arg in buffers:
+                out.append(("buffer", buffers[arg]))
+            elif arg.endswith("_mask") and arg[:-5] in buffers:
+                out.append(("mask", len(self.buffers[buffers[arg[:-5]]]) - 1))
+            elif which == "update" and arg in outs:
+                out.append(("own", arg))
+            elif arg in bp.coefs:
+                value = bp.coefs[arg]
+                if bp.coef_mode == "per_sample":
+                    out.append(("dcoef", arg))
+                elif arg in bp.coef_slots:
+                    kind = "int" if isinstance(value, int) and not isinstance(value, bool) else (
+                        "bool" if isinstance(value, bool) else "float")
+                    out.append(("coef", bp.coef_slots[arg], kind))
+                elif isinstance(value, tuple) and value and value[0] == "array":
+                    out.append(value)
+                else:
+                    out.append(self._static(value))
+            else:
+                raise PlanError(f"block {bp.name!r} ({cls.type_name}): {which}() argument {arg!r} "
+                                "is bound to nothing")
+        return tuple(out)
+
+    # -- probes and control-rate changes ----------------------------------------------------------
+    def resolve_probe(self, probe):
+        """`BLOCK.PORT` (an output, an input, a live parameter or a state) as a binding."""
+        block, _, port = probe.partition(".")
+        bp = self.by_name.get(block)
+        if bp is None:
+            raise PlanError(f"probe {probe!r}: no block named {block!r}")
+        out = bp.inst.output(port)
+        if out is not None:
+            return ("out", block, out.attr)
+        for p in bp.inst.inputs:
+            if p.name == port:
+                return ("sum", bp.inputs.get(port, ()))
+        if port in bp.cls.params and bp.cls.params[port].live:
+            return self._param_binding(bp, port)
+        for i, s in enumerate(bp.cls.states):
+            if s.attr == port:
+                return ("state", bp.states[i])
+        names = [p.name for p in bp.inst.outputs + bp.inst.inputs] + [s.attr for s in bp.cls.states]
+        raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
+                        f"{port!r}; it has: {', '.join(names)}")
+
+    def set_param(self, block, name, value):
+        """Change a live parameter between kernel calls (control rate): re-derives coefficients."""
+        bp = self.by_name[block]
+        param = bp.cls.params.get(name)
+        if param is None or not param.live:
+            raise PlanError(f"{block}.{name} is not a live parameter")
+        if name in bp.live_sources:
+            raise PlanError(f"{block}.{name} is driven by a connection")
+        value = float(value)
+        bp.values[name] = value
+        self.live[bp.live[name]] = value
+        if bp.coef_mode == "slot":
+            for k, v in bp.cls.derive(bp.params(), self.fs).items():
+                if k in bp.coef_slots:
+                    self.coef[bp.coef_slots[k]] = float(v)
+
+
+def cls_fn(cls, which):
+    return getattr(cls, which)

@@ -1,0 +1,1 @@
+"""hapticgraph: physical-model haptic musical instruments, compiled to one single-sample kernel."""
