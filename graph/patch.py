@@ -133,7 +133,6 @@ def load(path, overrides=(), registry=None):
         problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
                                  f"(the first is {audio[0].name!r})")
     devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
-    problems.raise_if_any()
     order = schedule(blocks, connections, problems)
     problems.raise_if_any()
     name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
@@ -205,7 +204,7 @@ def _check_schema(doc, registry, problems):
 
 
 def _describe(err, path, doc, registry):
-    what = "patch"
+    what, unit = "patch", ""
     if path and path[0] == "blocks" and len(path) >= 2:
         spec = doc["blocks"].get(path[1])
         kind = spec.get("type") if isinstance(spec, dict) else None
@@ -214,15 +213,10 @@ def _describe(err, path, doc, registry):
             what += f": parameter {path[2]!r}"
             cls = registry.types.get(kind)
             unit = cls.params[path[2]].unit if cls and path[2] in cls.params else ""
-        else:
-            unit = ""
     elif path and path[0] == "connect":
         what = f"connection {err.instance!r}" if isinstance(err.instance, str) else "connect"
     elif path:
         what = ".".join(str(p) for p in path)
-        unit = ""
-    else:
-        unit = ""
     v, s = err.instance, err.validator_value
     unit = f" {unit}" if unit else ""
     messages = {

@@ -1,0 +1,151 @@
+"""The `hapticgraph` command line.
+
+Exit status: 0 on success, 2 for a patch error (one `FILE:LINE: message` line per problem on
+standard error, never a traceback), 1 for any other failure.
+"""
+import argparse
+import json
+import os
+import sys
+
+from .graph.errors import PatchError
+from .graph.patch import load
+from .graph.program import PlanError
+from .graph.registry import Registry
+from .graph.schema import patch_schema
+
+
+class UsageError(Exception):
+    pass
+
+
+def _parser():
+    ap = argparse.ArgumentParser(prog="hapticgraph", description="Physical-model haptic instruments from YAML patches.")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run = sub.add_parser("run", help="render a patch offline to a 32-bit float WAV (and probes to .npz)")
+    run.add_argument("patch")
+    run.add_argument("--seconds", type=float, default=2.0, help="length to render (default 2)")
+    run.add_argument("--out", help="WAV file to write (default: the patch's name, .wav, here)")
+    run.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT",
+                     help="record a port (repeatable); a cell's port is name[i, j].port")
+    run.add_argument("--probes", metavar="FILE.npz", help="where the probes go (default: beside the WAV)")
+    run.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
+                     help="override a parameter (repeatable)")
+    run.add_argument("--engine", choices=("compiled", "python"), default="compiled",
+                     help="compiled numba kernel (default) or the reference interpreter")
+    run.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER",
+                     help="choose a device's driver (simulated, hid, replay)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    check = sub.add_parser("check", help="check a patch and report every problem")
+    check.add_argument("patch")
+    check.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
+
+    blocks = sub.add_parser("blocks", help="list the block types (built-in and plugins)")
+    blocks.add_argument("--json", action="store_true", help="machine-readable")
+    blocks.add_argument("--patch", help="also load this patch's plugins")
+
+    sub.add_parser("schema", help="print the JSON Schema of a patch (for editors)")
+    return ap
+
+
+def describe_block(cls, origin):
+    inputs, outputs = cls.ports(cls.default_params())
+    return {
+        "type": cls.type_name,
+        "origin": origin,
+        "equation": (cls.__doc__ or "").strip().splitlines()[0] if cls.__doc__ else "",
+        "inputs": [p.name for p in inputs],
+        "outputs": [p.name for p in outputs],
+        "params": {n: {"kind": p.kind, "default": list(p.default) if p.kind == "list" else p.default,
+                       "unit": p.unit, "minimum": p.minimum, "maximum": p.maximum, "above": p.above,
+                       "below": p.below, "live": p.live, "choices": list(p.choices) if p.choices else None,
+                       "doc": p.doc}
+                   for n, p in cls.params.items()},
+        "states": [s.attr for s in cls.states],
+        "feedthrough": sorted(cls.feedthrough()),
+    }
+
+
+def _cmd_blocks(args):
+    registry = Registry()
+    if args.patch:
+        registry = load(args.patch).registry
+    rows = [describe_block(registry.types[n], registry.origin[n]) for n in sorted(registry.types)]
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    for r in rows:
+        ins = ", ".join(r["inputs"] + [f"{n}*" for n, p in r["params"].items() if p["live"]])
+        print(f"{r['type']}: {ins or '-'} -> {', '.join(r['outputs']) or '-'}")
+        print(f"    {r['equation']}")
+        for n, p in r["params"].items():
+            unit = f" {p['unit']}" if p["unit"] else ""
+            print(f"    {n} = {p['default']!r}{unit}{'  (live)' if p['live'] else ''}")
+    print("(* a live parameter, also an input port)")
+    return 0
+
+
+def _cmd_check(args):
+    patch = load(args.patch, overrides=args.overrides)
+    print(f"{args.patch}: ok: {len(patch.blocks)} blocks, {len(patch.connections)} connections at "
+          f"{patch.rate:g} Hz; schedule: {' -> '.join(patch.order)}")
+    return 0
+
+
+def _cmd_run(args):
+    from .devices.wav import write_wav
+    from .graph.engine import render
+    import numpy as np
+    if args.device:
+        raise UsageError("--device: this build has only the simulated device driver; no other driver to choose")
+    if args.seconds <= 0:
+        raise UsageError("--seconds must be positive")
+    patch = load(args.patch, overrides=args.overrides)
+    stem = os.path.splitext(os.path.basename(args.patch))[0]
+    out = args.out or f"{stem}.wav"
+    try:
+        result = render(patch, args.seconds, probes=args.probe, engine=args.engine,
+                        progress=False if args.quiet else None)
+    except PlanError as exc:
+        raise UsageError(str(exc)) from None
+    written = []
+    if result.audio.shape[1]:
+        write_wav(out, result.audio, result.rate)
+        written.append(out)
+    if args.probe:
+        probes_path = args.probes or os.path.splitext(out)[0] + ".npz"
+        np.savez(probes_path, rate=result.rate, **result.probes)
+        written.append(probes_path)
+    if not written:
+        print(f"hapticgraph: {args.patch} has no audio_out block and no --probe was given; nothing written",
+              file=sys.stderr)
+    peak = float(np.max(np.abs(result.audio))) if result.audio.size else 0.0
+    print(f"{args.patch}: {args.seconds:g} s at {result.rate:g} Hz ({args.engine}; compile "
+          f"{result.compile_seconds:.2f} s, run {result.run_seconds:.2f} s), peak {peak:.4g} -> {', '.join(written) or '-'}")
+    return 0
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "schema":
+            print(json.dumps(patch_schema(Registry()), indent=2))
+            return 0
+        return {"run": _cmd_run, "check": _cmd_check, "blocks": _cmd_blocks}[args.command](args)
+    except PatchError as exc:
+        for problem in exc.problems:
+            print(problem, file=sys.stderr)
+        return 2
+    except UsageError as exc:
+        print(f"hapticgraph: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("hapticgraph: interrupted", file=sys.stderr)
+        return 1
+    except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback unless asked
+        if os.environ.get("HAPTICGRAPH_DEBUG"):
+            raise
+        print(f"hapticgraph: error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 1
