@@ -1,12 +1,12 @@
 """The block vocabulary and every built-in block type (`hapticgraph.blocks`)."""
 from .core import Block, BlockDefinitionError, Buffer, In, Out, Param, State, block_equation, helper
-from . import control, excitation, io, waveguide
+from . import control, coupling, excitation, io, waveguide
 
 
 def builtin_types():
     """Every built-in block type, by type name."""
     found = {}
-    for module in (waveguide, control, excitation, io):
+    for module in (waveguide, coupling, control, excitation, io):
         for obj in vars(module).values():
             if isinstance(obj, type) and issubclass(obj, Block) and obj.__module__ == module.__name__:
                 found[obj.type_name] = obj
