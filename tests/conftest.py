@@ -1,0 +1,39 @@
+"""Shared fixtures: one kernel cache per test session (never the user's), patch writers."""
+import os
+import pathlib
+import textwrap
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+PATCHES = sorted((ROOT / "patches").glob("*.yaml"))
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _kernel_cache(tmp_path_factory):
+    if "HAPTICGRAPH_CACHE" not in os.environ:
+        os.environ["HAPTICGRAPH_CACHE"] = str(tmp_path_factory.mktemp("kernels"))
+    yield
+
+
+@pytest.fixture
+def write_patch(tmp_path):
+    """write_patch(text, name="p.yaml") -> path of a patch file (text is dedented)."""
+    def write(text, name="p.yaml"):
+        path = tmp_path / name
+        path.write_text(textwrap.dedent(text).lstrip("\n"), encoding="utf-8")
+        return path
+    return write
+
+
+def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)):
+    """A patch text with one block `b` whose named inputs are fed by constant/noise sources."""
+    lines = ["hapticgraph: 1", f"rate: {rate}", "blocks:"]
+    lines.append(f"  b: {{type: {kind}{''.join(f', {k}: {v}' for k, v in (params or {}).items())}}}")
+    conns = []
+    for i, (port, src) in enumerate(inputs):
+        lines.append(f"  src{i}: {src}")
+        conns.append(f"  - src{i}.out -> b.{port}")
+    lines.append("connect:" + ("" if conns else " []"))
+    lines.extend(conns)
+    return "\n".join(lines) + "\n"
