@@ -64,5 +64,5 @@ def render(patch, seconds, probes=(), engine="compiled", chunk=1 << 16, progress
         bar(end)
     elapsed = time.perf_counter() - start
     audio = np.ascontiguousarray(rec[:, :prog.channels])
-    probed = {label: rec[:, k].copy() for k, (label, _) in enumerate(prog.records[prog.channels:],)}
+    probed = {label: rec[:, k].copy() for k, (label, _) in enumerate(prog.records) if k >= prog.channels}
     return Render(audio, probed, prog.rate, runner.compile_seconds, elapsed)

@@ -37,3 +37,8 @@ def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)
     lines.append("connect:" + ("" if conns else " []"))
     lines.extend(conns)
     return "\n".join(lines) + "\n"
+
+
+@pytest.fixture
+def patches_dir():
+    return ROOT / "patches"

@@ -1,0 +1,71 @@
+"""Both plugin routes: a `.py` file named in a patch's `plugins:`, and an installed package's
+entry point in the `hapticgraph.blocks` group. A plugin block compiles like a built-in one."""
+import math
+import shutil
+
+import numpy as np
+
+from conftest import ROOT
+from hapticgraph.graph.engine import render
+from hapticgraph.graph.kernel import CompiledKernel
+from hapticgraph.graph.patch import load
+from hapticgraph.graph.program import Program
+from hapticgraph.graph.registry import Registry
+
+EXAMPLES = ROOT / "examples"
+
+
+def test_file_plugin_relative_to_patch(tmp_path):
+    folder = tmp_path / "instrument"
+    shutil.copytree(EXAMPLES / "file_plugin", folder)
+    patch = load(folder / "saturated_string.yaml")
+    assert patch.registry.origin["cubic"] == "plugin 'cubic.py'"
+    a = render(patch, 0.05, probes=["shape.out", "damp.out"])
+    b = render(load(folder / "saturated_string.yaml"), 0.05, probes=["shape.out", "damp.out"], engine="python")
+    np.testing.assert_allclose(a.probes["shape.out"], b.probes["shape.out"], atol=1e-12)
+    x = a.probes["damp.out"]
+    np.testing.assert_allclose(a.probes["shape.out"], x - 0.2 * x ** 3, atol=1e-15)
+    # the plugin's function is called from the generated kernel exactly like a built-in's
+    kernel = CompiledKernel(Program(patch))
+    assert "cubic_output(" in kernel.source and "hapticgraph_plugin_cubic_" in kernel.source
+
+
+def test_entry_point_plugin(tmp_path, monkeypatch):
+    """An installed distribution advertising the entry point (a dist-info on sys.path)."""
+    site = tmp_path / "site"
+    shutil.copytree(EXAMPLES / "hapticgraph-example-plugin" / "hg_example_plugin", site / "hg_example_plugin")
+    info = site / "hapticgraph_example_plugin-0.1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: hapticgraph-example-plugin\nVersion: 0.1.0\n")
+    (info / "entry_points.txt").write_text("[hapticgraph.blocks]\nexample = hg_example_plugin\n")
+    monkeypatch.syspath_prepend(str(site))
+    registry = Registry()
+    assert "soft_clip" in registry.types
+    assert registry.origin["soft_clip"].startswith("entry point example")
+    patch_file = tmp_path / "p.yaml"
+    patch_file.write_text(
+        "hapticgraph: 1\nblocks:\n  w: {type: wavetable, amplitude: 3.0}\n  c: {type: soft_clip, limit: 0.5}\n"
+        "connect: [w.out -> c.in]\n")
+    r = render(load(patch_file, registry=registry), 0.01, probes=["w.out", "c.out"])
+    np.testing.assert_allclose(r.probes["c.out"], 0.5 * np.tanh(r.probes["w.out"] / 0.5), atol=1e-15)
+
+
+def test_plugin_cannot_shadow_a_builtin(tmp_path, capsys):
+    from hapticgraph.cli import main
+    (tmp_path / "shadow.py").write_text(
+        "from hapticgraph.blocks import Block, Out\n\nclass Gain(Block, name='gain'):\n"
+        "    '''out = 1.'''\n    y = Out(name='out')\n\n    @staticmethod\n    def output():\n        return 1.0\n")
+    (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins:\n  - shadow.py\nblocks: {}\n")
+    assert main(["check", str(tmp_path / "p.yaml")]) == 2
+    assert "p.yaml:3: block type 'gain' from plugin 'shadow.py' is already defined by built-in" in capsys.readouterr().err
+
+
+def test_broken_plugin_file_is_a_patch_error(tmp_path, capsys):
+    from hapticgraph.cli import main
+    (tmp_path / "broken.py").write_text("import math\nraise RuntimeError('oops')\n")
+    (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins: [broken.py]\nblocks: {}\n")
+    assert main(["check", str(tmp_path / "p.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "p.yaml:2: plugin file 'broken.py' failed to import: RuntimeError: oops" in err
+    assert "Traceback" not in err
+    assert math.isfinite(1.0)
