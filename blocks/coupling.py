@@ -101,12 +101,12 @@ class VelocityEstimator(Block, name="velocity_estimator"):
     """d[n] = (in[n] − in[n−1])·fs (d[0] = 0); out[n] = (1 − a)·d[n] + a·out[n−1], a = exp(−2π·cutoff/fs), a = 0 when cutoff = 0.  Ref: seed 000 Fig. 6.
 
     The first sample has no predecessor, so its difference is 0: a device resting away from 0
-    gives no start-up spike.
+    gives no start-up spike. `cutoff` is a design constant of the estimator (not live).
     """
 
     x = In(name="in", doc="position [m]")
     y = Out(name="out", doc="velocity [m/s]")
-    cutoff = Param(0.0, unit="Hz", minimum=0.0, maximum=1e6,
+    cutoff = Param(0.0, unit="Hz", minimum=0.0, maximum=1e6, live=False,
                    doc="one-pole low-pass smoothing of the difference; 0: none")
     x1 = State(0.0, doc="in[n−1]")
     y1 = State(0.0, doc="out[n−1]")

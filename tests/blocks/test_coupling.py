@@ -1,5 +1,6 @@
 """Haptic coupling blocks (seed 000): hand-computed sequences, the block functions called directly
 and the same blocks run through both engines; the implicit junction checked against eqs. (1)-(4)."""
+import inspect
 import math
 import os
 
@@ -8,7 +9,7 @@ import pytest
 
 from hapticgraph.blocks.coupling import (Bow, DisplacementEstimator, ExplicitJunction, ImplicitJunction,
                                          Plucker, SpringDamper, VelocityEstimator)
-from hapticgraph.graph.engine import render
+from hapticgraph import render
 from hapticgraph.graph.errors import PatchError
 from hapticgraph.graph.patch import load
 
@@ -58,7 +59,7 @@ def both(tmp_path, text, samples, probes):
     return a.probes
 
 
-def drive(block, inputs, samples, probes):
+def drive(block, inputs):
     """A patch text: block `b` (a YAML flow mapping) fed by one-sample impulse sequences."""
     blocks, conns = [f"  b: {block}"], []
     for port, values in inputs.items():
@@ -70,7 +71,6 @@ def drive(block, inputs, samples, probes):
 
 def step(cls, values, state, **coefs):
     """Call a block's output then update directly; returns (outputs, new state)."""
-    import inspect
     env = dict(values, **state, **coefs)
     out = cls.output(*[env[a] for a in inspect.signature(cls.output).parameters])
     outs = out if isinstance(out, tuple) else (out,)
@@ -107,7 +107,7 @@ def test_explicit_junction_functions():
 
 
 def test_explicit_junction_patch(tmp_path):
-    text = drive("{type: explicit_junction, impedance: 2.0}", EXPL_IN, 6, None)
+    text = drive("{type: explicit_junction, impedance: 2.0}", EXPL_IN)
     probes = both(tmp_path, text, 6, ["b.aR", "b.bL", "b.v", "b.force"])
     for k, v in EXPL_OUT.items():
         np.testing.assert_array_equal(probes[f"b.{k}"], v, err_msg=k)
@@ -139,12 +139,13 @@ STRING_CONNECT = """\
 """
 
 
-def teleoperated_string(junction, seconds_hold=0.0):
+def teleoperated_string(junction):
     """Seed 000 Fig. 4 + Fig. 6: a string with a control junction, bound by spring_damper (explicit)
     or by the junction's own k, R (implicit) to a device held at xm = 1 mm."""
-    text = "hapticgraph: 1\nrate: 8000\nblocks:\n" + STRING + (
-        "  j:    {type: %s, impedance: 1.0%s}\n" % (junction, ", k: 100.0, R: 0.2" if junction != "explicit_junction" else "")
-        + "  xm:   {type: constant, value: 0.001}\n")
+    coupling = ", k: 100.0, R: 0.2" if junction == "implicit_junction" else ""
+    text = ("hapticgraph: 1\nrate: 8000\nblocks:\n" + STRING
+            + f"  j:    {{type: {junction}, impedance: 1.0{coupling}}}\n"
+            + "  xm:   {type: constant, value: 0.001}\n")
     conns = STRING_CONNECT
     if junction == "explicit_junction":
         text += ("  xs:   {type: displacement_estimator, pole: 0.9999}\n"
@@ -166,18 +167,52 @@ def test_loop_through_explicit_junction_is_not_algebraic(tmp_path):
     assert probes["j.v"][0] == 0.0 and probes["j.v"][1] == pytest.approx(0.1 / 2.0)
 
 
+LITERAL_JUNCTION = '''\
+from hapticgraph.blocks import Block, In, Out, State
+
+
+class LiteralJunction(Block, name="literal_junction"):
+    """aR[n] = aL[n-1] + F[n]/2 (Fig. 4 read literally, R0 = 1)."""
+    aL = In()
+    bR = In()
+    force = In()
+    aR = Out()
+    bL = Out()
+    v = Out()
+    a1 = State()
+    b1 = State()
+    f1 = State()
+
+    @staticmethod
+    def output(aL, force, a1, b1, f1):
+        return a1 + force / 2, b1 + f1 / 2, aL + b1 + f1 / 2
+
+    @staticmethod
+    def update(aL, bR, force):
+        return aL, bR, force
+'''
+
+
+def test_fig4_read_literally_would_be_an_algebraic_loop(tmp_path):
+    """Why aR injects F[n−1]: a junction whose aR reads F[n] makes the same patch unloadable."""
+    (tmp_path / "literal.py").write_text(LITERAL_JUNCTION, encoding="utf-8")
+    text = teleoperated_string("explicit_junction").replace("type: explicit_junction", "type: literal_junction")
+    path = tmp_path / "literal.yaml"
+    path.write_text(text.replace("hapticgraph: 1\n", "hapticgraph: 1\nplugins: [literal.py]\n", 1), encoding="utf-8")
+    with pytest.raises(PatchError, match="algebraic loop"):
+        load(path)
+
+
 @pytest.mark.parametrize("junction", ["explicit_junction", "implicit_junction"])
 def test_teleoperated_string_settles_to_the_spring_force(tmp_path, junction):
-    """Fig. 5: a device held still pulls the string until the spring force k·(xm − x̂) holds it,
-    while the leaky estimator forgets x̂, so the force tends to k·xm; both junctions agree."""
-    text = teleoperated_string(junction)
+    """Fig. 5: a device held still pulls the string until the string holds still; the leaky
+    estimator then forgets x̂, so the spring force tends to k·xm = 0.1 N with either junction."""
     fs = 8000
-    probes = both(tmp_path, text, 3 * fs, ["j.v", "j.force"] if junction != "explicit_junction" else
-                  ["j.v", "link.force"])
-    force = probes["j.force" if junction != "explicit_junction" else "link.force"]
-    v = probes["j.v"]
-    assert np.all(np.isfinite(force)) and np.max(np.abs(v)) < 1.0
-    assert abs(force[-1] - 0.1) < 2e-3
+    force = "link.force" if junction == "explicit_junction" else "j.force"
+    probes = both(tmp_path, teleoperated_string(junction), 3 * fs, ["j.v", force])
+    f, v = probes[force], probes["j.v"]
+    assert np.all(np.isfinite(f)) and np.max(np.abs(v)) < 1.0
+    assert abs(f[-1] - 0.1) < 2e-3
     assert np.max(np.abs(v[-fs // 10:])) < 1e-3
 
 
@@ -243,24 +278,18 @@ def test_velocity_estimator_functions():
     np.testing.assert_allclose(got, [0.0, (1 - a) * 20.0, (1 - a) * 30.0 + a * (1 - a) * 20.0], atol=1e-12)
 
 
-@pytest.mark.parametrize("cutoff", [0.0, 25.0, "wired"])
+@pytest.mark.parametrize("cutoff", [0.0, 25.0])
 def test_velocity_estimator_on_a_ramp(tmp_path, cutoff):
     """x[n] = n/fs − 0.5 (a 1 Hz sawtooth of amplitude 0.5 before it wraps): velocity 1 m/s,
     smoothed: 1 − a^n."""
-    blocks = ["  saw: {type: wavetable, shape: sawtooth, frequency: 1.0, amplitude: 0.5, bandlimited: false}"]
-    conns = ["  - saw.out -> e.in"]
-    if cutoff == "wired":     # a live parameter driven by a signal: the coefficient is derived per sample
-        blocks += ["  e: {type: velocity_estimator}", "  fc: {type: constant, value: 25.0}"]
-        conns += ["  - fc.out -> e.cutoff"]
-        fc = 25.0
-    else:
-        blocks += [f"  e: {{type: velocity_estimator, cutoff: {cutoff}}}"]
-        fc = cutoff
-    y = both(tmp_path, patch_text(blocks, conns), 200, ["e.out"])["e.out"]
-    a = math.exp(-2 * math.pi * fc / RATE) if fc > 0 else 0.0
+    text = patch_text([
+        "  saw: {type: wavetable, shape: sawtooth, frequency: 1.0, amplitude: 0.5, bandlimited: false}",
+        f"  e: {{type: velocity_estimator, cutoff: {cutoff}}}",
+    ], ["  - saw.out -> e.in"])
+    y = both(tmp_path, text, 200, ["e.out"])["e.out"]
+    a = math.exp(-2 * math.pi * cutoff / RATE) if cutoff > 0 else 0.0
     n = np.arange(200)
-    expect = np.where(n == 0, 0.0, 1.0 - a ** n)
-    np.testing.assert_allclose(y, expect, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(y, np.where(n == 0, 0.0, 1.0 - a ** n), rtol=0, atol=1e-9)
 
 
 def test_displacement_estimator(tmp_path):
@@ -323,7 +352,7 @@ def test_plucker_fast_crossing_passes_without_plucking():
 
 
 def test_plucker_patch(tmp_path):
-    text = drive("{type: plucker, k: 100.0, release: 0.5}", {"x1": PLUCK_X1}, len(PLUCK_X1), None)
+    text = drive("{type: plucker, k: 100.0, release: 0.5}", {"x1": PLUCK_X1})
     pr = both(tmp_path, text, len(PLUCK_X1), ["b.force", "b.reaction", "b.engaged", "b.side"])
     np.testing.assert_allclose(pr["b.force"], PLUCK_F, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(pr["b.reaction"], -pr["b.force"])
@@ -403,16 +432,24 @@ def test_bow_on_an_open_string(tmp_path, table):
     assert 0.0 < pr["j.v"][-1] < vb and pr["b.force"][-1] > 0.0       # pulled toward the bow
 
 
-def test_bow_drives_a_string_to_finite_motion(tmp_path):
-    """Bowing the Fig. 4 string: bounded, both engines agree sample for sample."""
+def test_bow_drives_helmholtz_motion(tmp_path):
+    """Bowing the Fig. 4 string (loop delay 62 samples at 8 kHz) through the explicit junction:
+    after the attack the bowed point sticks to the bow (v ≈ vb), then flies back (v < 0) once
+    per period, as in seed 000 Fig. 7; both engines agree sample for sample."""
+    vb, pressure = 0.5, 0.2
     text = ("hapticgraph: 1\nrate: 8000\nblocks:\n" + STRING
             + "  j:  {type: explicit_junction, impedance: 1.0}\n  b:  {type: bow}\n"
-              "  vb: {type: constant, value: 0.1}\n  p:  {type: constant, value: 0.5}\n"
+              f"  vb: {{type: constant, value: {vb}}}\n  p:  {{type: constant, value: {pressure}}}\n"
             + "connect:\n" + STRING_CONNECT
             + "  - j.v -> b.v\n  - b.force -> j.force\n  - vb.out -> b.bow_velocity\n  - p.out -> b.pressure\n")
-    pr = both(tmp_path, text, 4000, ["j.v", "b.force"])
-    assert np.all(np.isfinite(pr["j.v"])) and np.max(np.abs(pr["b.force"])) <= 0.5 * 0.8 + 1e-12
-    assert np.std(pr["j.v"][2000:]) > 1e-3                         # it keeps sounding
+    pr = both(tmp_path, text, 16000, ["j.v", "b.force"])
+    v = pr["j.v"][-4000:]
+    assert np.all(np.isfinite(pr["j.v"])) and np.max(np.abs(pr["b.force"])) <= pressure * 0.8 + 1e-12
+    x = v - v.mean()
+    ac = np.array([np.dot(x[:-lag], x[lag:]) for lag in range(40, 90)]) / np.dot(x, x)
+    assert 40 + int(np.argmax(ac)) == 62 and np.max(ac) > 0.8          # one slip per period
+    assert np.mean(np.abs(v - vb) < 0.1 * vb) > 0.3                      # sticking
+    assert np.min(v) < -vb                                               # fast fly-back
 
 
 # -- declarations and checks ---------------------------------------------------------------------
