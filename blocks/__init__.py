@@ -1,17 +1,17 @@
 """The block vocabulary and every built-in block type (`hapticgraph.blocks`)."""
-from .core import Block, BlockDefinitionError, Buffer, In, Out, Param, State, block_equation, helper
-from . import control, coupling, excitation, io, waveguide
+from .core import Block, BlockDefinitionError, Buffer, External, In, Out, Param, State, block_equation, helper
+from . import control, coupling, device, excitation, io, waveguide
 
 
 def builtin_types():
     """Every built-in block type, by type name."""
     found = {}
-    for module in (waveguide, coupling, control, excitation, io):
+    for module in (waveguide, coupling, control, excitation, io, device):
         for obj in vars(module).values():
             if isinstance(obj, type) and issubclass(obj, Block) and obj.__module__ == module.__name__:
                 found[obj.type_name] = obj
     return found
 
 
-__all__ = ["Block", "BlockDefinitionError", "Buffer", "In", "Out", "Param", "State", "block_equation", "helper",
+__all__ = ["Block", "BlockDefinitionError", "Buffer", "External", "In", "Out", "Param", "State", "block_equation", "helper",
            "builtin_types"]

@@ -60,8 +60,11 @@ class Param(_Declaration):
     """
 
     def __init__(self, default, unit="", minimum=None, maximum=None, above=None, below=None,
-                 live=None, choices=None, doc="", min_items=None, max_items=None):
+                 live=None, choices=None, doc="", min_items=None, max_items=None, refers=None,
+                 internal=False):
         self.default = default
+        self.internal = internal  # set by the engine (e.g. from a device entry), never by a patch
+        self.refers = refers   # "devices": the value must name an entry of the patch's devices
         self.unit = unit
         self.minimum, self.maximum, self.above, self.below = minimum, maximum, above, below
         self.choices = tuple(choices) if choices is not None else None
@@ -122,6 +125,22 @@ class State(_Declaration):
 
     def value(self, p, fs):
         return float(self.initial(p, fs)) if callable(self.initial) else self.initial
+
+    @property
+    def name(self):
+        return self.attr
+
+
+class External(_Declaration):
+    """A per-sample value supplied from outside the patch: a device's sensor or a live input.
+
+    The engine's driver for the block's device writes it, one column per External, before each
+    block of samples; functions bind it by its attribute name like an input (it never feeds a
+    loop: nothing in the patch computes it).
+    """
+
+    def __init__(self, doc=""):
+        self.doc = doc
 
     @property
     def name(self):
@@ -191,6 +210,7 @@ class Block:
     params = {}      # name -> Param
     states = ()      # State declarations, in order
     buffers = ()     # Buffer declarations, in order
+    externals = ()   # External declarations, in order
     derive = None
     output = None
     update = None
@@ -210,6 +230,7 @@ class Block:
         cls.params = {d.attr: d for d in decls.values() if isinstance(d, Param)}
         cls.states = tuple(d for d in decls.values() if isinstance(d, State))
         cls.buffers = tuple(d for d in decls.values() if isinstance(d, Buffer))
+        cls.externals = tuple(d for d in decls.values() if isinstance(d, External))
         _check_definition(cls)
 
     # -- helpers used by the graph layer -------------------------------------------------------
@@ -234,7 +255,7 @@ class Block:
     @classmethod
     def schema(cls):
         props = {"type": {"const": cls.type_name}}
-        props.update({n: p.schema() for n, p in cls.params.items()})
+        props.update({n: p.schema() for n, p in cls.params.items() if not p.internal})
         s = {"type": "object", "properties": props, "required": ["type"],
              "additionalProperties": False}
         doc = (cls.__doc__ or "").strip().splitlines()
@@ -279,7 +300,7 @@ def _check_definition(cls):
     for d in cls.inputs + cls.outputs:
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", d.name):
             fail(f"port name {d.name!r} is not an identifier")
-    internal = ([d.attr for d in cls.inputs + cls.outputs + cls.states + cls.buffers]
+    internal = ([d.attr for d in cls.inputs + cls.outputs + cls.states + cls.buffers + cls.externals]
                 + list(cls.params) + [b.attr + "_mask" for b in cls.buffers])
     clash = set(internal) & set(RESERVED)
     if clash:
@@ -356,5 +377,5 @@ def block_equation(cls):
     return doc[0] if doc else ""
 
 
-__all__ = ["Block", "In", "Out", "Param", "State", "Buffer", "BlockDefinitionError", "block_equation",
+__all__ = ["Block", "In", "Out", "Param", "State", "Buffer", "External", "BlockDefinitionError", "block_equation",
            "helper"]

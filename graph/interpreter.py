@@ -11,7 +11,7 @@ class Interpreter:
         self.compile_seconds = 0.0
         self._params = {bp.index: bp.cls.param_tuple() for bp in prog.plans}
 
-    def _value(self, b, bp, t, outs, derived):
+    def _value(self, b, bp, t, outs, derived, ext_row=None):
         kind = b[0]
         p = self.prog
         if kind == "t":
@@ -44,14 +44,19 @@ class Interpreter:
             return p.arrays[b[1]]
         if kind == "mask":
             return b[1]
+        if kind == "ext":
+            return float(ext_row[b[1]])
         raise ValueError(f"unknown binding {b!r}")
 
-    def run(self, t0, rec):
+    def run(self, t0, rec, ext):
         p = self.prog
-        val = self._value
         for i in range(rec.shape[0]):
             t = t0 + i
             outs, derived = {}, {}
+            row = ext[i]
+
+            def val(b, bp, t, outs, derived):
+                return self._value(b, bp, t, outs, derived, row)
             for bp in p.plans:
                 if bp.coef_mode == "per_sample":
                     args = [val(b, bp, t, outs, derived) for b in bp.derive_args.values()]

@@ -1,7 +1,7 @@
 """The compiler: emit ONE readable kernel module per patch, write it to the cache folder under a
 hash, import it and let numba compile it (and cache the machine code beside it).
 
-The generated `kernel(n, t0, state, live, coef, rec, <buffers>, <arrays>)` runs n samples: state
+The generated `kernel(n, t0, state, live, coef, rec, ext, <buffers>, <arrays>)` runs n samples: state
 and live parameters are loaded into locals before the sample loop and stored back after it; in
 the loop every block's `output` then every `update` runs in schedule order, static values are
 literals, buffers are power-of-two rings indexed through the shared counter `t`.
@@ -19,12 +19,16 @@ from .program import Program
 _jitted = {}
 
 
-def jit(fn):
-    """The numba dispatcher of a block function, made once per process."""
-    d = _jitted.get(fn)
+def jit(fn, cache=True):
+    """The numba dispatcher of a block function, made once per process.
+
+    A per-sample `derive` is compiled with cache=False: its argument is a namedtuple type defined
+    in one kernel module, and numba's on-disk index would point other processes at that module.
+    """
+    d = _jitted.get((fn, cache))
     if d is None:
         import numba
-        d = _jitted[fn] = numba.njit(fn, cache=True)
+        d = _jitted[(fn, cache)] = numba.njit(fn, cache=cache)
     return d
 
 
@@ -114,7 +118,7 @@ def generate(prog: Program):
                 e(f"{alias} = {alias}_module.{qual}")
             for which in ("derive", "output", "update"):
                 if getattr(cls, which) is not None and (which != "derive" or _needs_derive(prog, cls)):
-                    e(f"{cls.type_name}_{which} = jit({alias}.{which})")
+                    e(f"{cls.type_name}_{which} = jit({alias}.{which}{', cache=False' if which == 'derive' else ''})")
                     fns.append(getattr(cls, which))
     for bp in prog.plans:
         if bp.coef_mode == "per_sample":
@@ -124,7 +128,7 @@ def generate(prog: Program):
     arr_args = [f"a{i}" for i in range(len(prog.arrays))]
     e()
     e("@numba.njit(cache=True, nogil=True)")
-    e(f"def kernel(n, t0, state, live, coef, rec{''.join(', ' + a for a in buf_args + arr_args)}):")
+    e(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
     e.indent()
     for bp in prog.plans:
         for slot in bp.states:
@@ -201,6 +205,8 @@ def expr(prog, bp, b):
         return f"a{b[1]}"
     if kind == "mask":
         return str(b[1])
+    if kind == "ext":
+        return f"ext[i, {b[1]}]"
     if kind == "own":
         return out_var(bp, b[1])
     raise ValueError(f"unknown binding {b!r}")
@@ -256,9 +262,9 @@ class CompiledKernel:
         self.extra = tuple(prog.buffers) + tuple(prog.arrays)
         # compile now (or load numba's cache), so the first block of audio is not late
         import numpy as np
-        self.run(0, np.zeros((0, len(prog.records))))
+        self.run(0, np.zeros((0, len(prog.records))), np.zeros((0, len(prog.ext_columns))))
         self.compile_seconds = time.perf_counter() - start
 
-    def run(self, t0, rec):
+    def run(self, t0, rec, ext):
         p = self.prog
-        self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, *self.extra)
+        self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, ext, *self.extra)

@@ -133,6 +133,7 @@ def load(path, overrides=(), registry=None):
         problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
                                  f"(the first is {audio[0].name!r})")
     devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
+    _check_devices(devices, blocks, problems)
     order = schedule(blocks, connections, problems)
     problems.raise_if_any()
     name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
@@ -187,10 +188,11 @@ def _check_schema(doc, registry, problems):
             else:
                 cls = registry.types[kind]
                 for key in spec:
-                    if key != "type" and key not in cls.params:
+                    if key != "type" and (key not in cls.params or cls.params[key].internal):
+                        public = [n for n, p in cls.params.items() if not p.internal]
                         problems.add(spec.lines[key],
                                      f"block {name!r} ({kind}): unknown parameter {key!r}"
-                                     f"{_suggest(key, cls.params)}")
+                                     f"{_suggest(key, public)}")
     validator = jsonschema.Draft202012Validator(patch_schema(registry))
     for err in validator.iter_errors(doc):
         path = list(err.absolute_path)
@@ -272,6 +274,38 @@ def _instances(doc, registry, rate, problems):
             problems.add(inst.line, f"block {name!r} ({cls.type_name}): its check failed: {exc!r}")
         out[name] = inst
     return out
+
+
+def _check_devices(devices, blocks, problems):
+    """Keyframes in time order; every device reference names a declared device, once."""
+    for name, spec in devices.items():
+        script = spec.get("script") if isinstance(spec, LDict) else None
+        if isinstance(script, LList):
+            last = None
+            for key, line in zip(script, script.lines):
+                t = key.get("t") if isinstance(key, dict) else None
+                if isinstance(t, (int, float)) and not isinstance(t, bool):
+                    if last is not None and t < last:
+                        problems.add(line, f"device {name!r}: script keyframe at t = {t} s goes back in time "
+                                           f"(the previous one is at t = {last} s)")
+                    last = t
+    users = {}
+    for inst in blocks.values():
+        for pname, param in inst.cls.params.items():
+            if param.refers != "devices":
+                continue
+            value = inst.values[pname]
+            line = inst.line_of(pname)
+            if not value:
+                problems.add(line, f"block {inst.name!r} ({inst.cls.type_name}): parameter {pname!r}: "
+                                   f"name the device (one of: {', '.join(devices) or 'none declared under devices:'})")
+            elif value not in devices:
+                problems.add(line, f"block {inst.name!r} ({inst.cls.type_name}): parameter {pname!r}: "
+                                   f"no device named {value!r} under devices:{_suggest(value, devices)}")
+            elif value in users:
+                problems.add(line, f"block {inst.name!r}: device {value!r} is already bound to block {users[value]!r}")
+            else:
+                users[value] = inst.name
 
 
 def _valid(param, value):

@@ -11,6 +11,7 @@ A binding is a small tuple:
   ("coef", slot, kind)                 a coefficient re-derived at control rate (`coef` array)
   ("dcoef", name)                      a coefficient derived every sample (a live input drives it)
   ("state", slot) ("buffer", i) ("mask", m) ("own", out_attr)
+  ("ext", column)                      a per-sample value a device driver supplies (External)
 """
 import numpy as np
 
@@ -55,6 +56,8 @@ class BlockPlan:
         self.output_args = ()
         self.update_args = ()
         self.derive_args = {}     # for per-sample derive: param -> binding
+        self.device = None        # the device entry this block is bound to
+        self.ext = {}             # External attr -> column of the ext array
 
     def params(self):
         return self.cls.param_tuple()(**self.values)
@@ -63,11 +66,15 @@ class BlockPlan:
 class Program:
     """The plan of one patch: block plans in schedule order plus the runtime arrays."""
 
-    def __init__(self, patch, probes=()):
+    def __init__(self, patch, probes=(), drivers=None):
         self.patch, self.rate = patch, float(patch.rate)
         self.fs = self.rate
         self.plans = [BlockPlan(i, patch.blocks[name]) for i, name in enumerate(patch.order)]
         self.by_name = {bp.name: bp for bp in self.plans}
+        self.drivers = dict(drivers or {})
+        self.ext_columns = []     # (device, column name)
+        for bp in self.plans:
+            self._bind_device(bp)
         state, live, coef = [], [], []
         self.buffers, self.arrays = [], []
         for bp in self.plans:
@@ -117,6 +124,39 @@ class Program:
                 self.channels = len(bp.inst.inputs)
         for probe in probes:
             self.records.append((probe, self.resolve_probe(probe)))
+        self.device_records = []   # (device name, record column): the force each driver receives
+        for bp in self.plans:
+            if bp.device is not None:
+                self.device_records.append((bp.device, len(self.records)))
+                self.records.append((f"{bp.name}.force -> {bp.device}", ("sum", bp.inputs.get("force", ()))))
+
+    def _bind_device(self, bp):
+        refs = [n for n, p in bp.cls.params.items() if p.refers == "devices"]
+        if not refs:
+            if bp.cls.externals:
+                raise PlanError(f"block {bp.name!r} ({bp.cls.type_name}) has external inputs but no device")
+            return
+        device = bp.values[refs[0]]
+        driver = self.drivers.get(device)
+        if driver is None:
+            raise PlanError(f"block {bp.name!r}: no driver for device {device!r}")
+        cls = driver.block_type or bp.cls
+        if not issubclass(cls, bp.cls):
+            raise PlanError(f"driver of device {device!r} offers {cls.__name__}, not a kind of {bp.cls.__name__}")
+        values = {k: v for k, v in cls.default_params().items()}
+        values.update({k: v for k, v in bp.values.items() if k in cls.params})
+        values.update(driver.block_values())
+        bp.cls, bp.values, bp.device = cls, values, device
+        offset = len(self.ext_columns)
+        columns = list(driver.columns)
+        used = set(_arguments(cls.output) if cls.output else ()) | set(_arguments(cls.update) if cls.update else ())
+        for e in cls.externals:
+            if e.attr not in used:
+                continue
+            if e.attr not in columns:
+                raise PlanError(f"driver of device {device!r} does not supply {e.attr!r} for block {bp.name!r}")
+            bp.ext[e.attr] = offset + columns.index(e.attr)
+        self.ext_columns += [(device, c) for c in columns]
 
     # -- wiring --------------------------------------------------------------------------------
     def _connect(self, bp):
@@ -174,6 +214,8 @@ class Program:
                 out.append(("buffer", buffers[arg]))
             elif arg.endswith("_mask") and arg[:-5] in buffers:
                 out.append(("mask", len(self.buffers[buffers[arg[:-5]]]) - 1))
+            elif arg in bp.ext:
+                out.append(("ext", bp.ext[arg]))
             elif which == "update" and arg in outs:
                 out.append(("own", arg))
             elif arg in bp.coefs:

@@ -6,6 +6,41 @@ CONNECTION = rf"^\s*{ENDPOINT}\s*->\s*{ENDPOINT}\s*$"
 DRIVERS = ["simulated", "hid", "replay"]
 
 
+def device_schema():
+    """A device entry: the driver and its settings (the simulated device is the default)."""
+    number = {"type": "number"}
+    keyframe = {"type": "object", "required": ["t", "x"], "additionalProperties": False,
+                "properties": {"t": {"type": "number", "minimum": 0, "description": "time [s]"},
+                               "x": {"type": "number", "minimum": -1, "maximum": 1,
+                                     "description": "hand position [m]"}}}
+    common = {"driver": {"enum": DRIVERS, "default": "simulated"},
+              "max_force": {**number, "exclusiveMinimum": 0, "maximum": 1000, "default": 4.0,
+                            "description": "every force sent to the device is clamped to this [N]"}}
+    simulated = {**common,
+                 "mass": {**number, "exclusiveMinimum": 0, "maximum": 100, "default": 0.05,
+                          "description": "moving mass of the device [kg]"},
+                 "hand_stiffness": {**number, "minimum": 0, "maximum": 1e6, "default": 400.0,
+                                    "description": "stiffness of the hand's grip [N/m]"},
+                 "hand_damping": {**number, "minimum": 0, "maximum": 1e4, "default": 4.0,
+                                  "description": "damping of the hand's grip [N·s/m]"},
+                 "script": {"type": "array", "items": keyframe, "minItems": 1,
+                            "description": "keyframes the hand follows, linear between them"},
+                 "hold": {"type": "boolean", "default": True,
+                          "description": "keep the last keyframe (true) or repeat the script (false)"}}
+    return {
+        "type": "object",
+        "properties": {"driver": common["driver"]},
+        "allOf": [
+            {"if": {"properties": {"driver": {"const": "simulated"}}},
+             "then": {"properties": simulated, "additionalProperties": False}},
+            {"if": {"required": ["driver"], "properties": {"driver": {"const": "hid"}}},
+             "then": {"properties": {**common, "profile": {"type": "string"}}, "required": ["profile"]}},
+            {"if": {"required": ["driver"], "properties": {"driver": {"const": "replay"}}},
+             "then": {"properties": {**common, "file": {"type": "string"}}, "required": ["file"]}},
+        ],
+    }
+
+
 def patch_schema(registry):
     names = sorted(registry.types)
     defs = {name: registry.types[name].schema() for name in names}
@@ -16,10 +51,7 @@ def patch_schema(registry):
         "allOf": [{"if": {"properties": {"type": {"const": n}}, "required": ["type"]},
                    "then": {"$ref": f"#/$defs/{n}"}} for n in names],
     }
-    device = {
-        "type": "object",
-        "properties": {"driver": {"enum": DRIVERS, "default": "simulated"}},
-    }
+    device = device_schema()
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": "https://hapticgraph.invalid/patch-1.schema.json",

@@ -6,6 +6,7 @@ expanding. Numbers must be finite.
 """
 import math
 import os
+import re
 
 import yaml
 
@@ -14,6 +15,21 @@ from .errors import Collector
 MAX_BYTES = 4 * 1024 * 1024
 MAX_NODES = 200_000
 MAX_DEPTH = 64
+
+
+class PatchLoader(yaml.SafeLoader):
+    """SafeLoader that also reads YAML 1.2 floats such as `1e-3` (YAML 1.1 wants `1.0e-3`)."""
+
+
+PatchLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+PatchLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                    |[-+]?(?:[0-9][0-9_]*)(?:[eE][-+]?[0-9]+)
+                    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                    |[-+]?\.(?:inf|Inf|INF)
+                    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."))
 
 
 class LDict(dict):
@@ -67,7 +83,7 @@ def read_text(path, problems):
 
 def parse(text, problems):
     """Parse YAML text into LDict/LList/scalars; None (with problems recorded) if it cannot."""
-    loader = yaml.SafeLoader(text)
+    loader = PatchLoader(text)
     try:
         node = loader.get_single_node()
     except yaml.MarkedYAMLError as exc:

@@ -13,15 +13,22 @@ from .graph.errors import PatchError, Problem
 from .graph.patch import Patch
 from .graph.patch import load
 from .graph.registry import Registry
+from .devices import open_drivers
 
 __version__ = "0.1.0"
 
 
-def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None):
-    """Render a patch (a Patch or a path) offline: `.audio` (frames × channels), `.probes`, `.rate`."""
+def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devices=None, drivers=None):
+    """Render a patch (a Patch or a path) offline: `.audio` (frames × channels), `.probes`, `.rate`.
+
+    Devices run on their patch's drivers (the simulated device by default); `devices` maps a
+    device name to another driver name, `drivers` to ready Driver objects.
+    """
     if isinstance(patch, (str, os.PathLike)):
         patch = load(patch)
-    return _render(patch, seconds, probes=probes, engine=engine, progress=progress)
+    if drivers is None:
+        drivers = open_drivers(patch, devices)
+    return _render(patch, seconds, probes=probes, engine=engine, progress=progress, drivers=drivers)
 
 
 __all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "PatchError", "Problem",

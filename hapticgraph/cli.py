@@ -95,20 +95,26 @@ def _cmd_check(args):
 
 
 def _cmd_run(args):
+    from .devices import DeviceError, open_drivers
     from .devices.wav import write_wav
     from .graph.engine import render
     import numpy as np
-    if args.device:
-        raise UsageError("--device: this build has only the simulated device driver; no other driver to choose")
+    choices = {}
+    for item in args.device:
+        name, sep, driver = item.partition("=")
+        if not sep or not name or not driver:
+            raise UsageError(f"--device {item!r}: expected NAME=DRIVER")
+        choices[name] = driver
     if args.seconds <= 0:
         raise UsageError("--seconds must be positive")
     patch = load(args.patch, overrides=args.overrides)
     stem = os.path.splitext(os.path.basename(args.patch))[0]
     out = args.out or f"{stem}.wav"
     try:
+        drivers = open_drivers(patch, choices)
         result = render(patch, args.seconds, probes=args.probe, engine=args.engine,
-                        progress=False if args.quiet else None)
-    except PlanError as exc:
+                        progress=False if args.quiet else None, drivers=drivers)
+    except (PlanError, DeviceError) as exc:
         raise UsageError(str(exc)) from None
     written = []
     if result.audio.shape[1]:

@@ -28,8 +28,16 @@ def write_patch(tmp_path):
 
 def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)):
     """A patch text with one block `b` whose named inputs are fed by constant/noise sources."""
-    lines = ["hapticgraph: 1", f"rate: {rate}", "blocks:"]
-    lines.append(f"  b: {{type: {kind}{''.join(f', {k}: {v}' for k, v in (params or {}).items())}}}")
+    from hapticgraph.graph.registry import Registry
+    cls = Registry().types[kind]
+    params = dict(params or {})
+    lines = ["hapticgraph: 1", f"rate: {rate}"]
+    for name, p in cls.params.items():
+        if p.refers == "devices" and name not in params:
+            lines.append("devices:\n  dev: {driver: simulated, script: [{t: 0.0, x: 0.0}, {t: 0.01, x: 0.001}]}")
+            params[name] = "dev"
+    lines.append("blocks:")
+    lines.append(f"  b: {{type: {kind}{''.join(f', {k}: {v}' for k, v in params.items())}}}")
     conns = []
     for i, (port, src) in enumerate(inputs):
         lines.append(f"  src{i}: {src}")

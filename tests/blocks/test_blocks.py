@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from hapticgraph.blocks.excitation import Noise
-from hapticgraph.graph.engine import render
+from hapticgraph import render
 from hapticgraph.graph.patch import load
 
 

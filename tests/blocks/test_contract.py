@@ -6,7 +6,7 @@ import pytest
 
 from conftest import single_block_patch
 from hapticgraph.blocks.core import BlockDefinitionError
-from hapticgraph.graph.engine import render
+from hapticgraph import render
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.registry import Registry
 

@@ -52,13 +52,13 @@ def test_state_persists_across_chunks(patches_dir):
     one = Program(patch)
     k = CompiledKernel(one)
     whole = np.zeros((3000, len(one.records)))
-    k.run(0, whole)
+    k.run(0, whole, np.zeros((3000, 0)))
     two = Program(load(patches_dir / "karplus_strong.yaml"))
     k2 = CompiledKernel(two)
     parts = np.zeros_like(whole)
     start = 0
     for size in (1, 7, 64, 1000, 1928):
-        k2.run(start, parts[start:start + size])
+        k2.run(start, parts[start:start + size], np.zeros((size, 0)))
         start += size
     np.testing.assert_array_equal(whole, parts)
 
@@ -67,7 +67,7 @@ def test_live_parameter_change_without_recompiling(patches_dir):
     prog = Program(load(patches_dir / "karplus_strong.yaml"))
     k = CompiledKernel(prog)
     rec = np.zeros((100, len(prog.records)))
-    k.run(0, rec)
+    k.run(0, rec, np.zeros((100, 0)))
     prog.set_param("mic", "gain", 0.0)
-    k.run(100, rec)
+    k.run(100, rec, np.zeros((100, 0)))
     assert np.all(rec == 0.0)

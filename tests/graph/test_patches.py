@@ -4,7 +4,7 @@ import pytest
 
 from analysis import estimate_f0
 from conftest import PATCHES
-from hapticgraph.graph.engine import render
+from hapticgraph import render
 from hapticgraph.graph.patch import load
 
 

@@ -6,7 +6,7 @@ import shutil
 import numpy as np
 
 from conftest import ROOT
-from hapticgraph.graph.engine import render
+from hapticgraph import render
 from hapticgraph.graph.kernel import CompiledKernel
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.program import Program

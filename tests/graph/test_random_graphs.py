@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hapticgraph.graph.engine import render
+from hapticgraph import render
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.registry import Registry
 

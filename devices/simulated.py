@@ -1,0 +1,93 @@
+"""The simulated haptic device, the headless default (`driver: simulated`).
+
+The device's moving mass m is held by a hand, modelled as a spring k_h and damper R_h whose
+anchor follows the scripted keyframes, and is pushed by the force the patch sends back:
+
+    m·a = k_h·(x_hand − x) + R_h·(v_hand − v) + clip(F, ±max_force)
+
+integrated with semi-implicit (symplectic) Euler inside the kernel, every sample, so the haptic
+loop is closed in simulation with the same driver interface a real device uses.
+"""
+import numpy as np
+
+from ..blocks import External, Param, State
+from ..blocks.device import Haptic, clamp_force
+from ..graph.engine import Driver
+
+
+class SimulatedHaptic(Haptic, name="simulated_haptic"):
+    """m·v' = k_h(x_hand − x) + R_h(v_hand − v) + clip(F); x[n+1] = x[n] + v[n+1]/fs (semi-implicit Euler)."""
+
+    mass = Param(0.05, unit="kg", above=0.0, live=False, internal=True)
+    hand_stiffness = Param(400.0, unit="N/m", minimum=0.0, live=False, internal=True)
+    hand_damping = Param(4.0, unit="N·s/m", minimum=0.0, live=False, internal=True)
+    max_force = Param(4.0, unit="N", above=0.0, live=False, internal=True)
+    x0 = Param(0.0, unit="m", live=False, internal=True)
+    hand_x = External()
+    hand_v = External()
+    pos = State(lambda p, fs: p.x0)
+    vel = State(0.0)
+
+    @staticmethod
+    def output(pos, vel):
+        return pos, vel
+
+    @staticmethod
+    def update(pos, vel, force, hand_x, hand_v, mass, hand_stiffness, hand_damping, max_force, fs):
+        f = hand_stiffness * (hand_x - pos) + hand_damping * (hand_v - vel) + clamp_force(force, max_force)
+        vel = vel + f / (mass * fs)
+        return pos + vel / fs, vel
+
+
+class SimulatedDevice(Driver):
+    """Driver of one simulated device entry: supplies the hand's trajectory, records the force."""
+
+    columns = ("hand_x", "hand_v")
+    block_type = SimulatedHaptic
+
+    def __init__(self, name, spec):
+        self.name = name
+        script = spec.get("script") or [{"t": 0.0, "x": 0.0}]
+        self.times = np.array([float(k["t"]) for k in script])
+        self.xs = np.array([float(k["x"]) for k in script])
+        self.hold = bool(spec.get("hold", True))
+        self.max_force = float(spec.get("max_force", 4.0))
+        self.values = {"mass": float(spec.get("mass", 0.05)),
+                       "hand_stiffness": float(spec.get("hand_stiffness", 400.0)),
+                       "hand_damping": float(spec.get("hand_damping", 4.0)),
+                       "max_force": self.max_force, "x0": float(self.xs[0])}
+        self.rate = 44100.0
+        self.sent = []
+
+    def block_values(self):
+        return dict(self.values)
+
+    def start(self, rate):
+        self.rate = float(rate)
+        self.sent = []
+
+    def hand(self, t):
+        """Hand anchor position and velocity at times t (s): linear between keyframes."""
+        times, xs = self.times, self.xs
+        if not self.hold and times[-1] > 0:
+            t = np.mod(t, times[-1])
+        x = np.interp(t, times, xs)
+        if len(times) < 2:
+            return x, np.zeros_like(t)
+        seg = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
+        dt = times[seg + 1] - times[seg]
+        slope = np.divide(xs[seg + 1] - xs[seg], dt, out=np.zeros_like(dt), where=dt > 0)
+        inside = (t >= times[0]) & (t < times[-1])
+        return x, np.where(inside, slope, 0.0)
+
+    def fill(self, t0, ext):
+        t = (t0 + np.arange(ext.shape[0])) / self.rate
+        ext[:, 0], ext[:, 1] = self.hand(t)
+
+    def send(self, t0, force):
+        # what a real device would receive: clamped, NaN-free
+        sent = np.clip(np.nan_to_num(force, nan=0.0, posinf=0.0, neginf=0.0), -self.max_force, self.max_force)
+        self.sent.append(sent)
+
+    def force_sent(self):
+        return np.concatenate(self.sent) if self.sent else np.zeros(0)
