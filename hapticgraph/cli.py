@@ -47,6 +47,17 @@ def _parser():
     blocks.add_argument("--patch", help="also load this patch's plugins")
 
     sub.add_parser("schema", help="print the JSON Schema of a patch (for editors)")
+
+    plot = sub.add_parser("plot", help="render a patch and draw probe traces and a spectrogram to PNG")
+    plot.add_argument("patch")
+    plot.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT", help="a trace to draw (repeatable)")
+    plot.add_argument("-o", "--out", required=True, metavar="FILE.png")
+    plot.add_argument("--seconds", type=float, default=1.0, help="length to render (default 1)")
+    plot.add_argument("--window", nargs=2, type=float, metavar=("T0", "T1"), help="time window of the traces [s]")
+    plot.add_argument("--spectrogram", default="audio", metavar="audio|BLOCK.PORT|none",
+                      help="what the spectrogram shows (default: the audio)")
+    plot.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
+    plot.add_argument("--title", default=None)
     return ap
 
 
@@ -133,13 +144,36 @@ def _cmd_run(args):
     return 0
 
 
+def _cmd_plot(args):
+    from . import render
+    from .plot import plot_render
+    patch = load(args.patch, overrides=args.overrides)
+    spec = None if args.spectrogram == "none" else args.spectrogram
+    probes = list(args.probe)
+    if spec not in (None, "audio") and spec not in probes:
+        probes.append(spec)
+    try:
+        result = render(patch, args.seconds, probes=probes, progress=False)
+    except PlanError as exc:
+        raise UsageError(str(exc)) from None
+    if spec == "audio" and not result.audio.shape[1]:
+        spec = probes[0] if probes else None
+    if not probes and spec is None:
+        raise UsageError("nothing to draw: give --probe or a patch with audio_out")
+    plot_render(result, list(args.probe), args.out, title=args.title or patch.name,
+                window=tuple(args.window) if args.window else None, spectrogram=spec)
+    print(f"{args.patch}: {len(args.probe)} trace(s){' and a spectrogram' if spec else ''} -> {args.out}")
+    return 0
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     try:
         if args.command == "schema":
             print(json.dumps(patch_schema(Registry()), indent=2))
             return 0
-        return {"run": _cmd_run, "check": _cmd_check, "blocks": _cmd_blocks}[args.command](args)
+        return {"run": _cmd_run, "check": _cmd_check, "blocks": _cmd_blocks,
+                "plot": _cmd_plot}[args.command](args)
     except PatchError as exc:
         for problem in exc.problems:
             print(problem, file=sys.stderr)
