@@ -12,8 +12,8 @@ written by hand in numba and in C, and the compile times of every patch.
      (hand_string.string_mirror), measured the same way,
    - the same model as a hand-written C loop (gcc -O3 -march=native -ffp-contract=off, timed
      inside the C program with clock_gettime),
-   - hapticgraph.graph.engine.render() end to end (its run_seconds: chunks of 65536 samples into
-     a freshly allocated recording) against the hand numba loop run the same way.
+   - hapticgraph.graph.engine.render() end to end (its run_seconds: the kernel called chunk by
+     chunk into a freshly allocated recording) against the hand numba loop run the same way.
    Every output is checked against the block-built kernel's (max |difference| <= 1e-12).
 2. Compile time of every patch in patches/ and of the benchmark's patch, each in a fresh
    process: cold (new empty HAPTICGRAPH_CACHE and NUMBA_CACHE_DIR) and warm (the same folders,
@@ -45,6 +45,54 @@ TOLERANCE = 1e-12
 
 
 # ---------------------------------------------------------------------------------------------
+# the engine's API, as it is at the time (device drivers and the `ext` input array came later)
+# ---------------------------------------------------------------------------------------------
+def _accepts(fn, name):
+    import inspect
+    return name in inspect.signature(fn).parameters
+
+
+def open_drivers(patch):
+    """The patch's device drivers (simulated by default), or None where this version has none."""
+    try:
+        from hapticgraph.devices import open_drivers as _open
+    except ImportError:
+        return None
+    return _open(patch)
+
+
+def make_program(patch, drivers=None):
+    from hapticgraph.graph.program import Program
+    if _accepts(Program, "drivers"):
+        return Program(patch, drivers=open_drivers(patch) if drivers is None else drivers)
+    return Program(patch)
+
+
+def run_kernel(ck, t0, rec, ext=None):
+    """CompiledKernel.run over rec's rows (with an `ext` array of device inputs where it takes one)."""
+    if _accepts(ck.run, "ext"):
+        import numpy as np
+        if ext is None:
+            ext = np.zeros((rec.shape[0], len(getattr(ck.prog, "ext_columns", ()))))
+        return ck.run(t0, rec, ext)
+    return ck.run(t0, rec)
+
+
+def engine_render(patch, seconds):
+    from hapticgraph.graph.engine import render
+    if _accepts(render, "drivers"):
+        return render(patch, seconds, progress=False, drivers=open_drivers(patch))
+    return render(patch, seconds, progress=False)
+
+
+def engine_chunk():
+    import inspect
+
+    from hapticgraph.graph.engine import render
+    return inspect.signature(render).parameters["chunk"].default
+
+
+# ---------------------------------------------------------------------------------------------
 # compile-time child process
 # ---------------------------------------------------------------------------------------------
 def compile_child(patch_path):
@@ -53,7 +101,7 @@ def compile_child(patch_path):
     import numba  # noqa: F401
     from hapticgraph.graph.kernel import CompiledKernel
     from hapticgraph.graph.patch import load
-    from hapticgraph.graph.program import Program
+    from hapticgraph.graph.program import Program  # noqa: F401
     t1 = time.perf_counter()
     result = {"import": t1 - t0, "numba_init": 0.0}
     try:
@@ -71,7 +119,7 @@ def compile_child(patch_path):
     try:
         patch = load(patch_path)
         t2 = time.perf_counter()
-        prog = Program(patch)
+        prog = make_program(patch)
         ck = CompiledKernel(prog)
         t3 = time.perf_counter()
         result.update(load=t2 - t1, load_compile=t3 - t1, kernel=ck.compile_seconds)
@@ -261,18 +309,17 @@ def throughput(n, reps):
     import numpy as np
 
     import hand_string as hs
-    from hapticgraph.graph.engine import render
     from hapticgraph.graph.kernel import CompiledKernel
     from hapticgraph.graph.patch import load
-    from hapticgraph.graph.program import Program
 
     patch = load(str(PATCH))
     gains = model_gains(patch)
     start = time.perf_counter()
-    first = CompiledKernel(Program(patch))
+    first = CompiledKernel(make_program(patch))
     in_process_compile = time.perf_counter() - start
     rec = np.zeros((n, len(first.prog.records)))
     rec.fill(0.0)                                         # prefault
+    ext = np.zeros((n, len(getattr(first.prog, "ext_columns", ()))))
     out_hand, out_mirror = np.zeros(n), np.zeros(n)
     out_hand.fill(0.0)
     out_mirror.fill(0.0)
@@ -287,9 +334,9 @@ def throughput(n, reps):
     hs.string_hand_retrigger(0, 0, out_retrig, -1e18, ring(), ring(), np.zeros(4), ring(), ring(), *gains)
 
     def block():
-        ck = CompiledKernel(Program(patch))               # already compiled: fresh state only
+        ck = CompiledKernel(make_program(patch))          # already compiled: fresh state only
         t = time.perf_counter()
-        ck.run(0, rec)
+        run_kernel(ck, 0, rec, ext)
         return time.perf_counter() - t
 
     def hand():
@@ -320,11 +367,13 @@ def throughput(n, reps):
     seconds = n / patch.rate
 
     def via_render():
-        r = render(patch, seconds, progress=False)
+        r = engine_render(patch, seconds)
         via_render.audio = r.audio
         return r.run_seconds
 
-    def hand_render(chunk=1 << 16):
+    chunk = engine_chunk()
+
+    def hand_render():
         out = np.zeros(n)                                 # like render(): fresh, not prefaulted
         r1, r2, h, l2, l1 = ring(), ring(), np.zeros(4), ring(), ring()
         t = time.perf_counter()
@@ -346,7 +395,7 @@ def throughput(n, reps):
              "delay_terms": np.max(np.abs(out_terms - ref)), "retrigger": np.max(np.abs(out_retrig - ref)),
              "render": np.max(np.abs(via_render.audio[:, 0] - ref)),
              "hand_render": np.max(np.abs(hand_render.audio - ref))}
-    return {"n": n, "best": best, "diffs": diffs, "ref": ref, "gains": gains,
+    return {"n": n, "chunk": chunk, "best": best, "diffs": diffs, "ref": ref, "gains": gains,
             "peak": float(np.max(np.abs(ref))), "in_process_compile": in_process_compile,
             "kernel_path": first.path}
 
@@ -404,6 +453,7 @@ def main():
         ref_sum = float(np.sum(tp["ref"]))
         if abs(c_result["checksum"] - ref_sum) > 1e-9 * max(1.0, abs(ref_sum)):
             tp["diffs"]["C checksum"] = abs(c_result["checksum"] - ref_sum)
+        print(f"C compiler: {c_result['compiler']}")
     else:
         print(f"C loop skipped: {c_out}")
 
@@ -418,10 +468,10 @@ def main():
             ("  hand numba + the pluck block's trigger-window test", sps["retrigger"])]
     if c_result is not None:
         rows.append((f"hand-written C ({' '.join(C_FLAGS)})", c_result["samples_per_second"]))
-    rows += [("engine.render() end to end (run_seconds)", sps["render"]),
-             ("hand numba, render()'s way (chunks, fresh buffer)", sps["hand_render"])]
+    rows += [(f"engine.render() end to end (run_seconds, chunks of {tp['chunk']})", sps["render"]),
+             ("hand numba, render()'s way (same chunks, fresh buffer)", sps["hand_render"])]
     for label, v in rows:
-        print(f"  {label:<52} {v / 1e6:8.1f} M samples/s  {1e9 / v:6.2f} ns/sample")
+        print(f"  {label:<58} {v / 1e6:8.1f} M samples/s  {1e9 / v:6.2f} ns/sample")
     print()
     print("Outputs against the block-built kernel (max |difference|):")
     for k, d in tp["diffs"].items():
