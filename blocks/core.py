@@ -61,8 +61,9 @@ class Param(_Declaration):
 
     def __init__(self, default, unit="", minimum=None, maximum=None, above=None, below=None,
                  live=None, choices=None, doc="", min_items=None, max_items=None, refers=None,
-                 internal=False):
+                 internal=False, schema=None):
         self.default = default
+        self.data_schema = schema  # structured data (e.g. lists of cell indices): this JSON Schema
         self.internal = internal  # set by the engine (e.g. from a device entry), never by a patch
         self.refers = refers   # "devices": the value must name an entry of the patch's devices
         self.unit = unit
@@ -70,7 +71,7 @@ class Param(_Declaration):
         self.choices = tuple(choices) if choices is not None else None
         self.doc = doc
         self.min_items, self.max_items = min_items, max_items
-        self.kind = _kind_of(default)
+        self.kind = "data" if schema is not None else _kind_of(default)
         if live is None:
             live = self.kind == "number"
         self.live = bool(live)
@@ -92,6 +93,8 @@ class Param(_Declaration):
             s = {"type": "integer", **bounds}
         elif self.kind == "boolean":
             s = {"type": "boolean"}
+        elif self.kind == "data":
+            s = dict(self.data_schema)
         elif self.kind == "list":
             s = {"type": "array", "items": {"type": "number", **bounds}}
             if self.min_items is not None:
@@ -111,6 +114,16 @@ class Param(_Declaration):
             s["description"] = desc
         s["default"] = list(self.default) if self.kind == "list" else self.default
         return s
+
+    def value_of(self, raw):
+        """The Python value of a checked patch value."""
+        if self.kind == "number":
+            return float(raw)
+        if self.kind == "list":
+            return np.asarray(list(raw), dtype=np.float64)
+        if self.kind == "data":
+            return _plain(raw)
+        return raw
 
 
 class State(_Declaration):
@@ -250,7 +263,7 @@ class Block:
 
     @classmethod
     def default_params(cls):
-        return {n: _normalise(p.default) for n, p in cls.params.items()}
+        return {n: _normalise(p.default, p.kind) for n, p in cls.params.items()}
 
     @classmethod
     def schema(cls):
@@ -279,7 +292,18 @@ class Block:
         return tuple(cls.derive(p, fs))
 
 
-def _normalise(value):
+def _plain(value):
+    """Plain lists/dicts/scalars (the patch's located containers stripped)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def _normalise(value, kind=None):
+    if kind == "data":
+        return _plain(value)
     if isinstance(value, (list, tuple)):
         return np.asarray(value, dtype=np.float64)
     return value

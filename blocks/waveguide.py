@@ -35,6 +35,10 @@ class Delay(Block, name="delay"):
 
     @staticmethod
     def output(line, line_mask, t, n, c0, c1, a, y1):
+        if c1 == 0.0 and a == 0.0:
+            # a whole-number length: c1 and a are literals, so this branch folds away at compile
+            # time (strict IEEE arithmetic could not drop the `0.0 * x` terms by itself)
+            return c0 * line[(t - n) & line_mask]
         return c0 * line[(t - n) & line_mask] + c1 * line[(t - n - 1) & line_mask] - a * y1
 
     @staticmethod

@@ -261,7 +261,7 @@ def _instances(doc, registry, rate, problems):
                 if not _valid(param, value):
                     ok = False
                     continue
-                values[key] = _coerce(param, value)
+                values[key] = param.value_of(value)
         if not ok:
             continue
         inst = Instance(name, cls, values, blocks.lines[name], spec.lines, index)
@@ -314,15 +314,6 @@ def _valid(param, value):
         return True
     except jsonschema.ValidationError:
         return False
-
-
-def _coerce(param, value):
-    import numpy as np
-    if param.kind == "number":
-        return float(value)
-    if param.kind == "list":
-        return np.asarray(list(value), dtype=np.float64)
-    return value
 
 
 def _connections(doc, blocks, problems):
