@@ -21,10 +21,13 @@ class Interpreter:
         if kind == "sum":
             if not b[1]:
                 return 0.0
-            total = outs[b[1][0]]
-            for src in b[1][1:]:
-                total = total + outs[src]
+            total = None
+            for src in b[1]:
+                v = float(p.arrays[src[1]][src[2]]) if src[0] == "@" else outs[src]
+                total = v if total is None else total + v
             return total
+        if kind == "inv":
+            return 1.0 / self._value(b[1], bp, t, outs, derived, ext_row)
         if kind == "out":
             return outs[(b[1], b[2])]
         if kind == "own":
@@ -81,3 +84,19 @@ class Interpreter:
                     new_states.extend(zip(bp.states, result))
             for slot, v in new_states:
                 p.state[slot] = v
+            for net in p.networks:
+                self._step_network(net, val, t, outs, derived)
+
+    def _step_network(self, net, val, t, outs, derived):
+        from ..blocks import lattice
+        p = self.prog
+        frc = p.arrays[net.slots["frc"]]
+        for flat, sources in net.forces.items():
+            frc[flat] += val(("sum", tuple(sources)), None, t, outs, derived)
+        if net.net.stencil is None:
+            scale = p.arrays[net.slots["scale"]]
+            for comp, col, b, inv in net.scales:
+                v = val(b, p.by_name[net.net.components[comp].name], t, outs, derived)
+                scale[comp, col] = 1.0 / v if inv else v
+        name, args = net.step_call()
+        getattr(lattice, name)(*[val(a, None, t, outs, derived) for a in args])

@@ -120,6 +120,10 @@ def generate(prog: Program):
                 if getattr(cls, which) is not None and (which != "derive" or _needs_derive(prog, cls)):
                     e(f"{cls.type_name}_{which} = jit({alias}.{which}{', cache=False' if which == 'derive' else ''})")
                     fns.append(getattr(cls, which))
+    if prog.networks:
+        from ..blocks import lattice
+        e("from hapticgraph.blocks.lattice import network_step, sheet_step, string_step")
+        fns.append(lattice.network_step)
     for bp in prog.plans:
         if bp.coef_mode == "per_sample":
             e(f"P{bp.index} = collections.namedtuple('P{bp.index}', {list(bp.cls.params)!r})")
@@ -166,6 +170,17 @@ def generate(prog: Program):
             e(f"{', '.join(f's{slot}' for slot in bp.states)} = {call}  # {bp.name}")
         else:
             e(f"{call}  # {bp.name}")
+    for net in prog.networks:
+        e(f"# mass-spring network: {', '.join(net.net.names)} ({net.net.n} cells)")
+        frc = net.slots["frc"]
+        for flat, sources in net.forces.items():
+            e(f"a{frc}[{flat}] += {expr(prog, None, ('sum', tuple(sources)))}")
+        if net.net.stencil is None:
+            for comp, col, b, inv in net.scales:
+                value = expr(prog, prog.by_name[net.net.components[comp].name], b)
+                e(f"a{net.slots['scale']}[{comp}, {col}] = {'1.0 / ' + value if inv else value}")
+        name, args = net.step_call()
+        e(f"{name}({', '.join(expr(prog, None, a) for a in args)})")
     e.dedent()
     for bp in prog.plans:
         for slot in bp.states:
@@ -187,8 +202,11 @@ def expr(prog, bp, b):
     if kind == "value":
         return lit(b[1])
     if kind == "sum":
-        terms = [out_var(prog.by_name[blk], attr) for blk, attr in b[1]]
+        terms = [f"a{src[1]}[{src[2]}]" if src[0] == "@" else out_var(prog.by_name[src[0]], src[1])
+                 for src in b[1]]
         return " + ".join(terms) if terms else "0.0"
+    if kind == "inv":
+        return f"1.0 / {expr(prog, bp, b[1])}"
     if kind == "out":
         return out_var(prog.by_name[b[1]], b[2])
     if kind == "live":

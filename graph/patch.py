@@ -11,10 +11,11 @@ import jsonschema
 import yaml
 
 from .errors import Collector, PatchError
+from .network import check_springs, check_stability
 from .registry import Registry, RegistryError
 from .schedule import schedule
 from .schema import patch_schema
-from .source import LDict, LList, line_of, load_yaml
+from .source import LDict, LList, PatchLoader, line_of, load_yaml
 
 DEFAULT_RATE = 44100.0
 _ENDPOINT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)(?:\[([-0-9 ,]*)\])?\.([A-Za-z_][A-Za-z0-9_]*)\s*")
@@ -128,6 +129,11 @@ def load(path, overrides=(), registry=None):
     rate = float(doc.get("rate", DEFAULT_RATE)) if isinstance(doc.get("rate"), (int, float)) else DEFAULT_RATE
     blocks = _instances(doc, registry, rate, problems)
     connections = _connections(doc, blocks, problems)
+    before = len(problems.problems)
+    declared = set(doc["blocks"]) if isinstance(doc.get("blocks"), LDict) else set()
+    check_springs(blocks, problems, declared)
+    if len(problems.problems) == before:
+        check_stability(blocks, rate, problems)
     audio = [b for b in blocks.values() if getattr(b.cls, "audio_sink", False)]
     for extra in audio[1:]:
         problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
@@ -153,7 +159,7 @@ def _apply_overrides(doc, overrides, problems):
             problems.add(1, f"--set {text!r}: the patch has no block named {block!r}")
             continue
         try:
-            value = yaml.safe_load(raw)
+            value = yaml.load(raw, Loader=PatchLoader)
         except yaml.YAMLError:
             value = raw
         if isinstance(value, list):
@@ -363,6 +369,10 @@ def _check_endpoint(inst, end, role, text, line, problems):
     found = inst.output(end.port) if role == "output" else inst.input(end.port)
     if found is not None:
         return True
+    if getattr(cls, "check_cell", None) is not None and end.port in ("position", "velocity", "force"):
+        problems.add(line, f"connection {text!r}: {inst.name!r} is a {cls.type_name}; address one of its cells "
+                           f"as {inst.name}[i, ...].{end.port}")
+        return False
     other = inst.input(end.port) if role == "output" else inst.output(end.port)
     ports = [p.name for p in (inst.outputs if role == "output" else inst.inputs)]
     if role == "input":

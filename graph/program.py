@@ -16,6 +16,7 @@ A binding is a small tuple:
 import numpy as np
 
 from ..blocks.core import _arguments
+from .network import Network, group, is_mass_spring
 
 MAX_LITERAL_ITEMS = 64
 
@@ -75,8 +76,10 @@ class Program:
         self.ext_columns = []     # (device, column name)
         for bp in self.plans:
             self._bind_device(bp)
-        state, live, coef = [], [], []
         self.buffers, self.arrays = [], []
+        self.networks = [NetPlan(self, Network(members, springs, self.fs)) for members, springs in group(patch.blocks)]
+        self.network_of = {name: net for net in self.networks for name in net.net.names}
+        state, live, coef = [], [], []
         for bp in self.plans:
             self._connect(bp)
         for bp in self.plans:
@@ -122,6 +125,8 @@ class Program:
                 for port in bp.inst.inputs:
                     self.records.append((f"{bp.name}.{port.name}", ("sum", bp.inputs.get(port.name, ()))))
                 self.channels = len(bp.inst.inputs)
+        for net in self.networks:
+            net.bind()
         for probe in probes:
             self.records.append((probe, self.resolve_probe(probe)))
         self.device_records = []   # (device name, record column): the force each driver receives
@@ -159,13 +164,22 @@ class Program:
         self.ext_columns += [(device, c) for c in columns]
 
     # -- wiring --------------------------------------------------------------------------------
+    def _source(self, end):
+        """What a connection reads: a block output, or a cell's position/velocity array element."""
+        net = self.network_of.get(end.block)
+        if net is not None:
+            return net.element(end)
+        return (end.block, self.patch.blocks[end.block].output(end.port).attr)
+
     def _connect(self, bp):
+        net = self.network_of.get(bp.name)
         for c in self.patch.connections:
             if c.dst.block != bp.name:
                 continue
-            src = self.patch.blocks[c.src.block]
-            source = (c.src.block, src.output(c.src.port).attr)
-            if c.dst.port in bp.cls.params:
+            source = self._source(c.src)
+            if net is not None and c.dst.port == "force":
+                net.add_force(c.dst, source)
+            elif c.dst.port in bp.cls.params:
                 bp.live_sources.setdefault(c.dst.port, []).append(source)
             else:
                 bp.inputs.setdefault(c.dst.port, []).append(source)
@@ -237,7 +251,17 @@ class Program:
 
     # -- probes and control-rate changes ----------------------------------------------------------
     def resolve_probe(self, probe):
-        """`BLOCK.PORT` (an output, an input, a live parameter or a state) as a binding."""
+        """`BLOCK.PORT` (an output, an input, a live parameter or a state) or `LATTICE[i, j].PORT`."""
+        from .patch import Endpoint
+        end = Endpoint.parse(probe)
+        if end is not None and end.block in self.network_of and end.port in ("position", "velocity"):
+            inst = self.patch.blocks[end.block]
+            check = getattr(inst.cls, "check_cell", None)
+            msg = check(inst.values, end.index, end.port, "output") if check and end.index is not None else (
+                f"address a cell as {end.block}[i, ...].{end.port}" if check else None)
+            if msg:
+                raise PlanError(f"probe {probe!r}: {msg}")
+            return ("sum", (self.network_of[end.block].element(end),))
         block, _, port = probe.partition(".")
         bp = self.by_name.get(block)
         if bp is None:
@@ -254,6 +278,8 @@ class Program:
             if s.attr == port:
                 return ("state", bp.states[i])
         names = [p.name for p in bp.inst.outputs + bp.inst.inputs] + [s.attr for s in bp.cls.states]
+        if block in self.network_of:
+            names = ["position", "velocity"]
         raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
                         f"{port!r}; it has: {', '.join(names)}")
 
@@ -276,3 +302,57 @@ class Program:
 
 def cls_fn(cls, which):
     return getattr(cls, which)
+
+
+class NetPlan:
+    """A fused mass-spring network's part of the plan: its arrays (registered as kernel array
+    arguments, updated in place), the forces wired into its cells, the live values of its
+    components, and which step function advances it."""
+
+    def __init__(self, prog, net):
+        self.prog, self.net = prog, net
+        names = ["pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr",
+                 "jrow", "jcol", "jk"]
+        self.slots = {}
+        for name in names:
+            self.slots[name] = len(prog.arrays)
+            prog.arrays.append(getattr(net, name))
+        self.scale = np.zeros((len(net.components), 3))
+        self.slots["scale"] = len(prog.arrays)
+        prog.arrays.append(self.scale)
+        self.forces = {}          # flat index -> [sources]
+        self.scales = []          # (component, column, binding, invert)
+
+    def element(self, end):
+        comp = self.net.by_name[end.block]
+        flat = comp.flat(end.index)
+        return ("@", self.slots["pos" if end.port == "position" else "vel"], flat)
+
+    def add_force(self, end, source):
+        flat = self.net.by_name[end.block].flat(end.index)
+        self.forces.setdefault(flat, []).append(source)
+
+    def bind(self):
+        """Bindings of the components' live mass, tension, damping (after live slots exist)."""
+        for comp in self.net.components:
+            bp = self.prog.by_name[comp.name]
+            self.scales.append((comp.index, 0, self.prog._param_binding(bp, "mass"), True))
+            if "tension" in bp.cls.params:
+                self.scales.append((comp.index, 1, self.prog._param_binding(bp, "tension"), False))
+            self.scales.append((comp.index, 2, self.prog._param_binding(bp, "damping"), False))
+
+    def step_call(self):
+        """(function name, argument expressions as bindings or literals) of the step."""
+        net, s = self.net, self.slots
+        if net.stencil is not None:
+            comp = net.components[0]
+            fixed = comp.inst.values["boundary"] == "fixed"
+            args = [("array", s["pos"]), ("array", s["vel"]), ("array", s["frc"])]
+            if net.stencil == "sheet":
+                args += [("value", comp.shape[0]), ("value", comp.shape[1])]
+            by_col = {col: b for _, col, b, _ in self.scales}
+            args += [("inv", by_col[0]), by_col[1], by_col[2], ("value", net.dt), ("value", fixed)]
+            return f"{net.stencil}_step", args
+        args = [("array", s[k]) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
+                                          "col", "kr", "jrow", "jcol", "jk", "scale")]
+        return "network_step", args + [("value", net.dt)]

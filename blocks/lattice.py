@@ -1,0 +1,196 @@
+"""Mass-spring instruments (seed 001, Cymatic): cells, n-dimensional lattices and springs.
+
+These blocks declare; the graph layer fuses every group of touching cells, lattices and
+springs into ONE structure-of-arrays network updated by `network_step` (CSR spring lists) or
+`string_step` / `sheet_step` (stencils for regular 1-D and 2-D lattices), so a 100,000-cell
+instrument is one loop and compiles as fast as a 10-cell one.
+
+Integration is the half-step (leapfrog) scheme: velocities live half a sample ahead of positions,
+    v[n+½] = v[n−½] + dt/m · (F_springs(x[n]) + F[n] − γ·v[n−½]),   x[n+1] = x[n] + dt·v[n+½],
+stable while dt²·Σk/m + dt·γ/m < 2 for every cell (Gershgorin bound of the stiffness matrix).
+A cell's `position` output is x[n], its `velocity` v[n−½]; its `force` input acts on v[n+½].
+"""
+import math
+
+from .core import Block, In, Out, Param, helper
+
+INDEX = {"type": "array", "items": {"type": "integer"}, "minItems": 1, "maxItems": 16}
+INDICES = {"type": "array", "items": INDEX}
+OVERRIDES = {"type": "array", "items": {
+    "type": "object", "required": ["index"], "additionalProperties": False,
+    "properties": {"index": INDEX,
+                   "mass": {"type": "number", "exclusiveMinimum": 0, "description": "[kg]"},
+                   "damping": {"type": "number", "minimum": 0, "description": "[N·s/m]"},
+                   "locked": {"type": "boolean"}}}}
+SHAPE = {"type": "array", "items": {"type": "integer"}, "minItems": 1, "maxItems": 16}
+CELL_PORTS = {"force": "input", "position": "output", "velocity": "output"}
+MAX_CELLS = 20_000_000
+BYTES_PER_CELL = 160   # an upper estimate of the fused arrays per cell (see benchmarks)
+STABILITY_BOUND = 2.0
+
+
+def stability_number(dt, stiffness_sum, mass, damping):
+    """dt²·Σk/m + dt·γ/m: the half-step scheme needs it below STABILITY_BOUND."""
+    return dt * dt * stiffness_sum / mass + dt * damping / mass
+
+
+class Cell(Block, name="cell"):
+    """m·(v[n+½] − v[n−½])/dt = F[n] + Σ springs − γ·v[n−½], x[n+1] = x[n] + dt·v[n+½].  Ref: seed 001 (cells)."""
+
+    force = In(doc="external force [N]")
+    position = Out(doc="x[n] [m]")
+    velocity = Out(doc="v[n−½] [m/s]")
+    mass = Param(0.001, unit="kg", above=0.0, maximum=1e6)
+    damping = Param(0.0, unit="N·s/m", minimum=0.0, maximum=1e6)
+    locked = Param(False, doc="a locked cell never moves")
+    mass_spring = True
+
+
+class Lattice(Block, name="lattice"):
+    """Each cell: m·a = tension·Σ_neighbours(x_j − x_i) + F − damping·v (half-step); outside a fixed boundary x = 0.  Ref: seed 001."""
+
+    shape = Param([10], schema={**SHAPE, "description": "cells along each axis: [n] string, [n, m] sheet, ..."})
+    mass = Param(0.001, unit="kg", above=0.0, maximum=1e6, doc="mass of each cell (scales the component)")
+    tension = Param(100.0, unit="N/m", minimum=0.0, maximum=1e9, doc="stiffness of each neighbour spring")
+    damping = Param(0.0, unit="N·s/m", minimum=0.0, maximum=1e6, doc="viscous damping of each cell")
+    boundary = Param("fixed", choices=("fixed", "free"),
+                     doc="fixed: cells on the edge are tied to 0 by one more spring; free: they are not")
+    lock = Param([], schema={**INDICES, "description": "indices of cells that never move"})
+    cut = Param([], schema={**INDICES, "description": "indices of cells removed from the lattice"})
+    cells = Param([], schema={**OVERRIDES, "description": "per-cell mass, damping, locked"})
+    mass_spring = True
+
+    @classmethod
+    def check(cls, p, fs):
+        shape = list(p.shape)
+        bad = [s for s in shape if s < 1]
+        if bad:
+            yield "shape", f"every extent must be at least 1, got {shape}"
+            return
+        total = math.prod(shape)
+        if total > MAX_CELLS:
+            yield "shape", (f"{shape} is {total:,} cells, about {total * BYTES_PER_CELL / 1e9:.1f} GB; "
+                            f"at most {MAX_CELLS:,} cells are allowed")
+            return
+        for key, items in (("lock", p.lock), ("cut", p.cut), ("cells", [c["index"] for c in p.cells])):
+            for index in items:
+                message = index_problem(shape, index)
+                if message:
+                    yield key, message
+
+    @classmethod
+    def check_cell(cls, values, index, port, role):
+        """A problem with `name[index].port` used as an `role` ("input" or "output"), or None."""
+        shape = list(values["shape"])
+        message = index_problem(shape, list(index))
+        if message:
+            return message
+        if port not in CELL_PORTS:
+            return f"a cell has no port {port!r}; its ports: force (input), position, velocity (outputs)"
+        if CELL_PORTS[port] != role:
+            return f"{port!r} is an {CELL_PORTS[port]}, it cannot be the {'source' if role == 'output' else 'destination'}"
+        index = list(index)
+        if index in [list(i) for i in values["cut"]]:
+            return "this cell is cut out of the lattice; it has no ports"
+        locked = index in [list(i) for i in values["lock"]] or any(
+            list(c["index"]) == index and c.get("locked") for c in values["cells"])
+        if locked:
+            return "this cell is locked (it never moves), so it cannot be wired"
+        return None
+
+
+def index_problem(shape, index):
+    if len(index) != len(shape):
+        return f"index {list(index)} has {len(index)} coordinate(s); the lattice has shape {shape}"
+    for i, (k, n) in enumerate(zip(index, shape)):
+        if not 0 <= k < n:
+            return f"index {list(index)} is out of range for shape {shape} (axis {i}: 0 … {n - 1})"
+    return None
+
+
+class Spring(Block, name="spring"):
+    """F = tension·(x_b − x_a) on cell a and −F on cell b.  Ref: seed 001 (joins)."""
+
+    a = Param("", doc="a cell: a cell block's name or lattice[i, j]")
+    b = Param("", doc="the other cell")
+    tension = Param(100.0, unit="N/m", minimum=0.0, maximum=1e9, live=False)
+    mass_spring = True
+
+
+@helper
+def network_step(pos, vel, frc, inv_m, damp, anchor, cid, rowptr, col, kr, jrow, jcol, jk, scale, dt):
+    """One half-step of a fused network with CSR spring lists (unsigned indices).
+
+    Per cell i of component c = cid[i]: scale[c] = (1/mass, tension, damping) at this sample;
+    inv_m and anchor are relative to the component (0 inverse mass: locked), damp is added to the
+    component's damping (per-cell overrides). Springs inside
+    components (rowptr/col/kr, scaled by the tension) and joins (jrow/jcol/jk, absolute).
+    """
+    n = pos.shape[0]
+    for i in range(n):
+        c = cid[i]
+        xi = pos[i]
+        f = 0.0
+        for e in range(rowptr[i], rowptr[i + 1]):
+            f += kr[e] * (pos[col[e]] - xi)
+        f = scale[c, 1] * (f - anchor[i] * xi)
+        for e in range(jrow[i], jrow[i + 1]):
+            f += jk[e] * (pos[jcol[e]] - xi)
+        w = inv_m[i] * scale[c, 0]
+        vel[i] += dt * w * (f + frc[i] - (scale[c, 2] + damp[i]) * vel[i])
+        frc[i] = 0.0
+    for i in range(n):
+        pos[i] += dt * vel[i]
+
+
+@helper
+def string_step(pos, vel, frc, inv_mass, tension, damping, dt, fixed):
+    """The 1-D stencil of a uniform lattice (no locks, cuts, overrides or joins)."""
+    n = pos.shape[0]
+    w = dt * inv_mass
+    end = tension if fixed else 0.0
+    if n == 1:
+        vel[0] += w * (frc[0] - 2.0 * end * pos[0] - damping * vel[0])
+        frc[0] = 0.0
+    else:
+        vel[0] += w * (tension * (pos[1] - pos[0]) - end * pos[0] + frc[0] - damping * vel[0])
+        frc[0] = 0.0
+        for i in range(1, n - 1):
+            vel[i] += w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) + frc[i] - damping * vel[i])
+            frc[i] = 0.0
+        vel[n - 1] += w * (tension * (pos[n - 2] - pos[n - 1]) - end * pos[n - 1] + frc[n - 1]
+                           - damping * vel[n - 1])
+        frc[n - 1] = 0.0
+    for i in range(n):
+        pos[i] += dt * vel[i]
+
+
+@helper
+def sheet_step(pos, vel, frc, rows, cols, inv_mass, tension, damping, dt, fixed):
+    """The 2-D stencil of a uniform rows × cols lattice, row-major."""
+    w = dt * inv_mass
+    for r in range(rows):
+        for c in range(cols):
+            i = r * cols + c
+            xi = pos[i]
+            f = 0.0
+            if r > 0:
+                f += pos[i - cols] - xi
+            elif fixed:
+                f -= xi
+            if r < rows - 1:
+                f += pos[i + cols] - xi
+            elif fixed:
+                f -= xi
+            if c > 0:
+                f += pos[i - 1] - xi
+            elif fixed:
+                f -= xi
+            if c < cols - 1:
+                f += pos[i + 1] - xi
+            elif fixed:
+                f -= xi
+            vel[i] += w * (tension * f + frc[i] - damping * vel[i])
+            frc[i] = 0.0
+    for i in range(rows * cols):
+        pos[i] += dt * vel[i]

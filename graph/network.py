@@ -1,0 +1,313 @@
+"""Fusing mass-spring blocks: every group of cells, lattices and springs that touch becomes one
+structure-of-arrays network (positions, velocities, inverse masses, damping, CSR spring lists
+with unsigned indices), so its size changes the arrays, never the generated code.
+
+Also: cell references (`plate[3, 4]`), the half-step stability check and the stiffness and mass
+matrices `hapticgraph modes` needs.
+"""
+import math
+import re
+
+import numpy as np
+
+from ..blocks.lattice import STABILITY_BOUND, index_problem, stability_number
+
+_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
+IDX = np.uint32
+
+
+def is_mass_spring(inst):
+    return getattr(inst.cls, "mass_spring", False)
+
+
+def parse_ref(text):
+    """'plate[3, 4]' -> ('plate', (3, 4)); 'bob' -> ('bob', None); None if unreadable."""
+    m = _REF.fullmatch(text or "")
+    if not m:
+        return None
+    if m.group(2) is None:
+        return m.group(1), None
+    try:
+        return m.group(1), tuple(int(v) for v in m.group(2).split(","))
+    except ValueError:
+        return None
+
+
+class Component:
+    """One lattice or cell block inside a network: its cells' place in the flat arrays."""
+
+    def __init__(self, index, inst, offset):
+        self.index, self.inst, self.name, self.offset = index, inst, inst.name, offset
+        v = inst.values
+        if inst.cls.type_name == "lattice":
+            self.shape = tuple(int(s) for s in v["shape"])
+            full = math.prod(self.shape)
+            alive = np.ones(full, dtype=bool)
+            for idx in v["cut"]:
+                alive[np.ravel_multi_index(tuple(idx), self.shape)] = False
+            self.compact = np.full(full, -1, dtype=np.int64)
+            self.compact[alive] = np.arange(int(alive.sum()))
+            self.alive = alive
+            self.count = int(alive.sum())
+        else:
+            self.shape = ()
+            self.compact = np.zeros(1, dtype=np.int64)
+            self.alive = np.ones(1, dtype=bool)
+            self.count = 1
+
+    def flat(self, index):
+        """The network-wide index of a cell (index None for a cell block), or None if cut."""
+        if not self.shape:
+            return self.offset
+        k = self.compact[np.ravel_multi_index(tuple(index), self.shape)]
+        return None if k < 0 else self.offset + int(k)
+
+    def label(self, flat):
+        if not self.shape:
+            return self.name
+        local = int(np.nonzero(self.compact == flat - self.offset)[0][0])
+        return f"{self.name}[{', '.join(str(int(i)) for i in np.unravel_index(local, self.shape))}]"
+
+
+class Network:
+    """The fused arrays of one group of touching mass-spring blocks."""
+
+    def __init__(self, members, springs, rate):
+        self.dt = 1.0 / rate
+        self.components = []
+        offset = 0
+        for inst in members:
+            comp = Component(len(self.components), inst, offset)
+            self.components.append(comp)
+            offset += comp.count
+        self.by_name = {c.name: c for c in self.components}
+        self.springs = springs
+        self.n = offset
+        self.names = [m.name for m in members] + [s.name for s in springs]
+        self._build()
+
+    def _build(self):
+        n = self.n
+        self.pos = np.zeros(n)
+        self.vel = np.zeros(n)
+        self.frc = np.zeros(n)
+        self.inv_m = np.ones(n)
+        self.damp = np.zeros(n)      # per-cell damping added to the component's (overrides)
+        self.anchor = np.zeros(n)
+        self.cid = np.zeros(n, dtype=IDX)
+        rows, cols = [], []
+        for comp in self.components:
+            sl = slice(comp.offset, comp.offset + comp.count)
+            self.cid[sl] = comp.index
+            v = comp.inst.values
+            if not comp.shape:
+                if v["locked"]:
+                    self.inv_m[sl] = 0.0
+                continue
+            r, c, anchors = _lattice_springs(comp, v["boundary"] == "fixed")
+            rows.append(r + comp.offset)
+            cols.append(c + comp.offset)
+            self.anchor[sl] = anchors
+            for idx in v["lock"]:
+                k = comp.flat(idx)
+                if k is not None:
+                    self.inv_m[k] = 0.0
+            for o in v["cells"]:
+                k = comp.flat(o["index"])
+                if k is None:
+                    continue
+                if "mass" in o:
+                    self.inv_m[k] = v["mass"] / o["mass"]
+                if "damping" in o:
+                    self.damp[k] = o["damping"] - v["damping"]
+                if o.get("locked"):
+                    self.inv_m[k] = 0.0
+        r = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
+        c = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
+        self.rowptr, self.col, self.kr = _csr(n, r, c, np.ones(len(r)))
+        jr, jc, jk = [], [], []
+        for s in self.springs:
+            a, b = self.cell_of(s.values["a"]), self.cell_of(s.values["b"])
+            jr += [a, b]
+            jc += [b, a]
+            jk += [s.values["tension"]] * 2
+        self.jrow, self.jcol, self.jk = _csr(n, np.array(jr, dtype=np.int64), np.array(jc, dtype=np.int64),
+                                             np.array(jk, dtype=np.float64))
+        # the stencil fast path: one uniform lattice of 1 or 2 dimensions, nothing irregular
+        only = self.components[0] if len(self.components) == 1 else None
+        self.stencil = None
+        if only is not None and only.shape and len(only.shape) <= 2 and not self.springs:
+            v = only.inst.values
+            if not v["lock"] and not v["cut"] and not v["cells"]:
+                self.stencil = "string" if len(only.shape) == 1 else "sheet"
+
+    def cell_of(self, ref):
+        name, index = parse_ref(ref)
+        return self.by_name[name].flat(index)
+
+    def stiffness_sums(self, tension_of=None):
+        """Σk per cell (springs and anchors) at the components' current tensions."""
+        t = np.array([c.inst.values["tension"] if c.shape else 0.0 for c in self.components])
+        counts = np.diff(self.rowptr.astype(np.int64)) + self.anchor
+        joins = np.add.reduceat(np.append(self.jk, 0.0), np.minimum(self.jrow[:-1], len(self.jk)).astype(np.int64))
+        joins[np.diff(self.jrow.astype(np.int64)) == 0] = 0.0
+        return t[self.cid] * counts + joins
+
+    def masses(self):
+        m = np.array([c.inst.values["mass"] for c in self.components])[self.cid]
+        with np.errstate(divide="ignore"):
+            return np.where(self.inv_m > 0, m / self.inv_m, np.inf)
+
+    def dampings(self):
+        d = np.array([c.inst.values["damping"] for c in self.components])[self.cid]
+        return d + self.damp
+
+    def stiffness_matrix(self):
+        """K (scipy sparse) with x'' = −M⁻¹K x, at the components' current tensions."""
+        import scipy.sparse as sp
+        n = self.n
+        t = np.array([c.inst.values["tension"] if c.shape else 0.0 for c in self.components])
+        rows = np.repeat(np.arange(n), np.diff(self.rowptr.astype(np.int64)))
+        k_int = t[self.cid[rows]] * self.kr
+        jrows = np.repeat(np.arange(n), np.diff(self.jrow.astype(np.int64)))
+        off = sp.coo_matrix((np.concatenate([-k_int, -self.jk]),
+                             (np.concatenate([rows, jrows]), np.concatenate([self.col, self.jcol]))), shape=(n, n))
+        return (sp.diags(self.stiffness_sums()) + off).tocsr()
+
+    def component_of(self, flat):
+        return self.components[int(self.cid[flat])]
+
+
+def _lattice_springs(comp, fixed):
+    """Neighbour springs (rows, cols, in local compact indices) and anchor counts of a lattice."""
+    shape, alive, compact = comp.shape, comp.alive, comp.compact
+    full = len(alive)
+    flat = np.arange(full)
+    coords = np.unravel_index(flat, shape)
+    strides = [int(np.prod(shape[i + 1:])) for i in range(len(shape))]
+    rows, cols = [], []
+    anchors = np.zeros(full)
+    for axis, n in enumerate(shape):
+        for step in (-1, 1):
+            nb = coords[axis] + step
+            inside = (nb >= 0) & (nb < n)
+            target = flat + step * strides[axis]
+            ok = alive & inside
+            ok[ok] &= alive[target[ok]]
+            rows.append(compact[flat[ok]])
+            cols.append(compact[target[ok]])
+            if fixed:
+                anchors += (alive & ~inside)
+    return np.concatenate(rows), np.concatenate(cols), anchors[alive]
+
+
+def _csr(n, rows, cols, vals):
+    order = np.argsort(rows, kind="stable")
+    rowptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n), out=rowptr[1:])
+    idx = IDX if n < 2 ** 32 else np.uint64
+    return rowptr.astype(idx), cols[order].astype(idx), np.ascontiguousarray(vals[order], dtype=np.float64)
+
+
+def group(blocks):
+    """Mass-spring blocks grouped by touch: [(members, springs)] in patch order."""
+    parent = {}
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    ms = [b for b in blocks.values() if is_mass_spring(b)]
+    for b in ms:
+        parent[b.name] = b.name
+    for b in ms:
+        if b.cls.type_name == "spring":
+            for key in ("a", "b"):
+                ref = parse_ref(b.values[key])
+                if ref and ref[0] in parent:
+                    parent[find(ref[0])] = find(b.name)
+    groups = {}
+    for b in sorted(ms, key=lambda b: b.index):
+        groups.setdefault(find(b.name), []).append(b)
+    out = []
+    for members in groups.values():
+        bodies = [b for b in members if b.cls.type_name != "spring"]
+        springs = [b for b in members if b.cls.type_name == "spring"]
+        if bodies:
+            out.append((bodies, springs))
+    return out
+
+
+def check_springs(blocks, problems, declared=()):
+    """Spring references name existing cells, not cut, and not the same cell twice.
+    (`declared`: every block name of the patch, also those with problems of their own.)"""
+    for inst in blocks.values():
+        if not is_mass_spring(inst) or inst.cls.type_name != "spring":
+            continue
+        cells = []
+        for key in ("a", "b"):
+            line = inst.line_of(key)
+            ref = parse_ref(inst.values[key])
+            where = f"block {inst.name!r} (spring): parameter {key!r}"
+            if ref is None or not inst.values[key]:
+                problems.add(line, f"{where}: write a cell as NAME or NAME[i, j]")
+                continue
+            name, index = ref
+            target = blocks.get(name)
+            if target is None and name in declared:
+                continue   # that block has its own problem, reported already
+            if target is None or target.cls.type_name not in ("lattice", "cell"):
+                problems.add(line, f"{where}: no lattice or cell block named {name!r}")
+                continue
+            if target.cls.type_name == "cell":
+                if index is not None:
+                    problems.add(line, f"{where}: {name!r} is a single cell; write it without an index")
+                    continue
+            else:
+                if index is None:
+                    problems.add(line, f"{where}: {name!r} is a lattice; name one of its cells as {name}[i, ...]")
+                    continue
+                msg = index_problem(list(target.values["shape"]), list(index))
+                if msg:
+                    problems.add(line, f"{where}: {msg}")
+                    continue
+                if list(index) in [list(i) for i in target.values["cut"]]:
+                    problems.add(line, f"{where}: {inst.values[key].strip()} is cut out of its lattice")
+                    continue
+            cells.append((name, index))
+        if len(cells) == 2 and cells[0] == cells[1]:
+            problems.add(inst.line, f"block {inst.name!r} (spring): joins cell {inst.values['a'].strip()} to itself")
+
+
+def check_stability(blocks, rate, problems):
+    """Refuse a network whose half-step update would blow up, naming the worst cell."""
+    for members, springs in group(blocks):
+        net = Network(members, springs, rate)
+        if net.n == 0:
+            continue
+        ksum = net.stiffness_sums()
+        mass = net.masses()
+        damp = net.dampings()
+        movable = np.isfinite(mass)
+        if not movable.any():
+            continue
+        number = np.where(movable, stability_number(net.dt, ksum, np.where(movable, mass, 1.0), damp), 0.0)
+        worst = int(np.argmax(number))
+        if number[worst] < STABILITY_BOUND:
+            continue
+        comp = net.component_of(worst)
+        inst = comp.inst
+        dt = net.dt
+        m, k, g = mass[worst], ksum[worst], damp[worst]
+        # the largest stable value of the component's tension (or the smallest mass), others fixed
+        hints = []
+        if comp.shape and inst.values["tension"] > 0 and k > 0:
+            scale = max((STABILITY_BOUND - dt * g / m) * m / (dt * dt * k), 0.0)
+            hints.append(f"largest stable tension {inst.values['tension'] * scale:.4g} N/m")
+        mass_needed = (dt * dt * k + dt * g) / STABILITY_BOUND
+        hints.append(f"smallest stable mass {mass_needed * inst.values['mass'] / m:.4g} kg")
+        problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): unstable at {rate:g} Hz: cell "
+                                f"{comp.label(worst)} has dt²·Σk/m + dt·γ/m = {number[worst]:.3g}, the half-step "
+                                f"scheme needs < {STABILITY_BOUND:g} ({'; '.join(hints)}; or raise the rate)")
