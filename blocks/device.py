@@ -22,8 +22,19 @@ class Haptic(Block, name="haptic"):
     x = Out(doc="device position [m]")
     v = Out(doc="device velocity [m/s]")
     device = Param("", refers="devices", doc="the name of an entry under devices:")
+    axes = Param([], internal=True, schema={"type": "array", "items": {"type": "string"}},
+                 doc="the device's other axes and buttons (set from its entry), each an output port")
     sensor_x = External()
     sensor_v = External()
+
+    @classmethod
+    def ports(cls, values):
+        extra = []
+        for name in values.get("axes", ()):
+            port = Out(doc="a device axis or button, straight from its driver")
+            port.attr, port.external = name, True
+            extra.append(port)
+        return cls.inputs, cls.outputs + tuple(extra)
 
     @staticmethod
     def output(sensor_x, sensor_v):

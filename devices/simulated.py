@@ -42,14 +42,18 @@ class SimulatedHaptic(Haptic, name="simulated_haptic"):
 class SimulatedDevice(Driver):
     """Driver of one simulated device entry: supplies the hand's trajectory, records the force."""
 
-    columns = ("hand_x", "hand_v")
     block_type = SimulatedHaptic
 
     def __init__(self, name, spec):
+        from ..graph.patch import device_axes
         self.name = name
         script = spec.get("script") or [{"t": 0.0, "x": 0.0}]
         self.times = np.array([float(k["t"]) for k in script])
-        self.xs = np.array([float(k["x"]) for k in script])
+        self.xs = self._track(script, "x")
+        # other axes and buttons: keyframes that carry the key are interpolated, others skipped
+        self.axes = device_axes({name: spec}, name)
+        self.axis_tracks = [self._track(script, a) for a in self.axes]
+        self.columns = ("hand_x", "hand_v") + tuple(self.axes)
         self.hold = bool(spec.get("hold", True))
         self.max_force = float(spec.get("max_force", 4.0))
         self.values = {"mass": float(spec.get("mass", 0.05)),
@@ -58,6 +62,13 @@ class SimulatedDevice(Driver):
                        "max_force": self.max_force, "x0": float(self.xs[0])}
         self.rate = 44100.0
         self.sent = []
+
+    def _track(self, script, key):
+        keys = [(float(k["t"]), float(k[key])) for k in script if key in k]
+        if not keys:
+            return np.zeros(len(self.times))
+        t, v = np.array(keys).T
+        return np.interp(self.times, t, v)
 
     def block_values(self):
         return dict(self.values)
@@ -83,6 +94,9 @@ class SimulatedDevice(Driver):
     def fill(self, t0, ext):
         t = (t0 + np.arange(ext.shape[0])) / self.rate
         ext[:, 0], ext[:, 1] = self.hand(t)
+        tt = np.mod(t, self.times[-1]) if not self.hold and self.times[-1] > 0 else t
+        for k, track in enumerate(self.axis_tracks):
+            ext[:, 2 + k] = np.interp(tt, self.times, track)
 
     def send(self, t0, force):
         # what a real device would receive: clamped, NaN-free

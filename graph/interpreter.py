@@ -23,7 +23,12 @@ class Interpreter:
                 return 0.0
             total = None
             for src in b[1]:
-                v = float(p.arrays[src[1]][src[2]]) if src[0] == "@" else outs[src]
+                if src[0] == "@":
+                    v = float(p.arrays[src[1]][src[2]])
+                elif src[0] == "#":
+                    v = float(ext_row[src[1]])
+                else:
+                    v = outs[src]
                 total = v if total is None else total + v
             return total
         if kind == "inv":

@@ -202,8 +202,8 @@ def expr(prog, bp, b):
     if kind == "value":
         return lit(b[1])
     if kind == "sum":
-        terms = [f"a{src[1]}[{src[2]}]" if src[0] == "@" else out_var(prog.by_name[src[0]], src[1])
-                 for src in b[1]]
+        terms = [f"a{src[1]}[{src[2]}]" if src[0] == "@" else f"ext[i, {src[1]}]" if src[0] == "#"
+                 else out_var(prog.by_name[src[0]], src[1]) for src in b[1]]
         return " + ".join(terms) if terms else "0.0"
     if kind == "inv":
         return f"1.0 / {expr(prog, bp, b[1])}"

@@ -270,6 +270,9 @@ def _instances(doc, registry, rate, problems):
                 values[key] = param.value_of(value)
         if not ok:
             continue
+        for pname, param in cls.params.items():
+            if param.refers == "devices" and "axes" in cls.params:
+                values["axes"] = device_axes(doc.get("devices"), values[pname])
         inst = Instance(name, cls, values, blocks.lines[name], spec.lines, index)
         try:
             for param, message in cls.check(inst.params, rate):
@@ -280,6 +283,22 @@ def _instances(doc, registry, rate, problems):
             problems.add(inst.line, f"block {name!r} ({cls.type_name}): its check failed: {exc!r}")
         out[name] = inst
     return out
+
+
+RESERVED_AXES = ("t", "x", "v", "force", "device")
+
+
+def device_axes(devices, name):
+    """A device's extra axes and buttons: for a simulated device, the keys its script keyframes
+    carry besides t and x (in order of appearance); otherwise its `axes` list."""
+    spec = devices.get(name) if isinstance(devices, dict) else None
+    if not isinstance(spec, dict):
+        return []
+    axes = [a for a in spec.get("axes", []) if isinstance(a, str)] if isinstance(spec.get("axes"), list) else []
+    for key in spec.get("script") or []:
+        if isinstance(key, dict):
+            axes += [k for k in key if k not in RESERVED_AXES and k not in axes]
+    return axes
 
 
 def _check_devices(devices, blocks, problems):

@@ -161,6 +161,12 @@ class Program:
             if e.attr not in columns:
                 raise PlanError(f"driver of device {device!r} does not supply {e.attr!r} for block {bp.name!r}")
             bp.ext[e.attr] = offset + columns.index(e.attr)
+        bp.ext_ports = {}
+        for port in bp.inst.outputs:
+            if getattr(port, "external", False):
+                if port.name not in columns:
+                    raise PlanError(f"driver of device {device!r} does not supply axis {port.name!r}")
+                bp.ext_ports[port.attr] = offset + columns.index(port.name)
         self.ext_columns += [(device, c) for c in columns]
 
     # -- wiring --------------------------------------------------------------------------------
@@ -169,7 +175,11 @@ class Program:
         net = self.network_of.get(end.block)
         if net is not None:
             return net.element(end)
-        return (end.block, self.patch.blocks[end.block].output(end.port).attr)
+        attr = self.patch.blocks[end.block].output(end.port).attr
+        col = getattr(self.by_name[end.block], "ext_ports", {}).get(attr)
+        if col is not None:
+            return ("#", col)
+        return (end.block, attr)
 
     def _connect(self, bp):
         net = self.network_of.get(bp.name)
@@ -268,7 +278,8 @@ class Program:
             raise PlanError(f"probe {probe!r}: no block named {block!r}")
         out = bp.inst.output(port)
         if out is not None:
-            return ("out", block, out.attr)
+            from .patch import Endpoint as _E
+            return ("sum", (self._source(_E(block, None, port)),))
         for p in bp.inst.inputs:
             if p.name == port:
                 return ("sum", bp.inputs.get(port, ()))

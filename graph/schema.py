@@ -9,7 +9,10 @@ DRIVERS = ["simulated", "hid", "replay"]
 def device_schema():
     """A device entry: the driver and its settings (the simulated device is the default)."""
     number = {"type": "number"}
-    keyframe = {"type": "object", "required": ["t", "x"], "additionalProperties": False,
+    keyframe = {"type": "object", "required": ["t"],
+                "propertyNames": {"pattern": IDENT, "not": {"enum": ["v", "force", "device"]}},
+                "additionalProperties": {"type": "number",
+                                         "description": "another axis or button of the device, an output port"},
                 "properties": {"t": {"type": "number", "minimum": 0, "description": "time [s]"},
                                "x": {"type": "number", "minimum": -1, "maximum": 1,
                                      "description": "hand position [m]"}}}

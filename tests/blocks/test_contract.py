@@ -20,7 +20,7 @@ def test_schema_and_defaults(kind):
     schema = cls.schema()
     jsonschema.Draft202012Validator.check_schema(schema)
     defaults = {"type": kind, **{n: (list(p.default) if p.kind == "list" else p.default)
-                                 for n, p in cls.params.items()}}
+                                 for n, p in cls.params.items() if not p.internal}}
     jsonschema.validate(defaults, schema)
     assert cls.__doc__ and cls.__doc__.strip(), "a block needs its one-line equation"
     for name, p in cls.params.items():

@@ -104,3 +104,27 @@ def test_device_patch_errors(tmp_path, capsys, text, line, needle):
     assert main(["check", str(path)]) == 2
     err = capsys.readouterr().err
     assert f"d.yaml:{line}: " in err and needle in err, err
+
+
+def test_script_axes_become_ports(write_patch):
+    """Keys other than t and x in the keyframes are the device's other axes and buttons."""
+    text = """
+    hapticgraph: 1
+    rate: 8000
+    devices:
+      joy: {driver: simulated, script: [{t: 0, x: 0, knob: 0.0, pedal: 0}, {t: 0.5, knob: 1.0, pedal: 1}]}
+    blocks:
+      js: {type: haptic, device: joy}
+      g: {type: gain, gain: 2.0}
+    connect:
+      - js.knob -> g.in
+      - js.pedal -> g.gain
+    """
+    p = load(write_patch(text))
+    assert [o.name for o in p.blocks["js"].outputs] == ["x", "v", "knob", "pedal"]
+    a = render(p, 1.0, probes=["js.knob", "g.out"])
+    b = render(load(p.file), 1.0, probes=["js.knob", "g.out"], engine="python")
+    np.testing.assert_allclose(a.probes["js.knob"][[0, 2000, 4000, 7999]], [0.0, 0.5, 1.0, 1.0])
+    np.testing.assert_allclose(a.probes["g.out"][[0, 2000, 4000]], [0.0, 0.25, 1.0])
+    for k in a.probes:
+        np.testing.assert_array_equal(a.probes[k], b.probes[k])
