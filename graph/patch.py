@@ -274,6 +274,12 @@ def _instances(doc, registry, rate, problems):
             if param.refers == "devices" and "axes" in cls.params:
                 values["axes"] = device_axes(doc.get("devices"), values[pname])
         inst = Instance(name, cls, values, blocks.lines[name], spec.lines, index)
+        for pname, param in cls.params.items():
+            if param.refers == "file" and values[pname]:
+                path = os.path.join(os.path.dirname(os.path.abspath(problems.file)), values[pname])
+                if not os.path.isfile(path):
+                    problems.add(inst.line_of(pname), f"block {name!r} ({cls.type_name}): parameter {pname!r}: "
+                                                      f"no file {values[pname]!r} beside the patch")
         try:
             for param, message in cls.check(inst.params, rate):
                 problems.add(inst.line_of(param) if param else inst.line,

@@ -138,10 +138,11 @@ class Program:
     def _bind_device(self, bp):
         refs = [n for n, p in bp.cls.params.items() if p.refers == "devices"]
         if not refs:
-            if bp.cls.externals:
-                raise PlanError(f"block {bp.name!r} ({bp.cls.type_name}) has external inputs but no device")
-            return
-        device = bp.values[refs[0]]
+            if not bp.cls.externals:
+                return
+            device = bp.name    # a block fed from outside by its own driver (e.g. audio_in)
+        else:
+            device = bp.values[refs[0]]
         driver = self.drivers.get(device)
         if driver is None:
             raise PlanError(f"block {bp.name!r}: no driver for device {device!r}")

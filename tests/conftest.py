@@ -37,6 +37,8 @@ def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)
             lines.append("devices:\n  dev: {driver: simulated, script: [{t: 0.0, x: 0.0}, {t: 0.01, x: 0.001}]}")
             params[name] = "dev"
     lines.append("blocks:")
+    if kind == "audio_in":   # the test writes in.wav beside the patch
+        params.setdefault("file", "in.wav")
     if kind == "spring":   # a spring needs two cells to join
         lines += ["  c1: {type: cell}", "  c2: {type: cell}"]
         params.setdefault("a", "c1")

@@ -28,7 +28,9 @@ def test_schema_and_defaults(kind):
 
 
 @pytest.mark.parametrize("kind", TYPES)
-def test_single_block_compiles_both_ways(kind, write_patch):
+def test_single_block_compiles_both_ways(kind, write_patch, tmp_path):
+    from hapticgraph.devices.wav import write_wav
+    write_wav(tmp_path / "in.wav", np.sin(np.arange(4410) * 0.05)[:, None] * 0.5, 44100)
     cls = REGISTRY.types[kind]
     inputs, outputs = cls.ports(cls.default_params())
     feeds = [(p.name, f"{{type: noise, amplitude: 0.1, seed: {i + 1}}}") for i, p in enumerate(inputs)]
