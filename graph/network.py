@@ -72,7 +72,8 @@ class Component:
 class Network:
     """The fused arrays of one group of touching mass-spring blocks."""
 
-    def __init__(self, members, springs, rate):
+    def __init__(self, members, springs, rate, stencils=True):
+        self.stencils = stencils    # False: always the CSR path (cells can be locked/cut live)
         self.dt = 1.0 / rate
         self.components = []
         offset = 0
@@ -136,7 +137,7 @@ class Network:
         # the stencil fast path: one uniform lattice of 1 or 2 dimensions, nothing irregular
         only = self.components[0] if len(self.components) == 1 else None
         self.stencil = None
-        if only is not None and only.shape and len(only.shape) <= 2 and not self.springs:
+        if self.stencils and only is not None and only.shape and len(only.shape) <= 2 and not self.springs:
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
                 self.stencil = "string" if len(only.shape) == 1 else "sheet"

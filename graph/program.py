@@ -67,7 +67,7 @@ class BlockPlan:
 class Program:
     """The plan of one patch: block plans in schedule order plus the runtime arrays."""
 
-    def __init__(self, patch, probes=(), drivers=None):
+    def __init__(self, patch, probes=(), drivers=None, editable=False):
         self.patch, self.rate = patch, float(patch.rate)
         self.fs = self.rate
         self.plans = [BlockPlan(i, patch.blocks[name]) for i, name in enumerate(patch.order)]
@@ -77,7 +77,8 @@ class Program:
         for bp in self.plans:
             self._bind_device(bp)
         self.buffers, self.arrays = [], []
-        self.networks = [NetPlan(self, Network(members, springs, self.fs)) for members, springs in group(patch.blocks)]
+        self.networks = [NetPlan(self, Network(members, springs, self.fs, stencils=not editable))
+                         for members, springs in group(patch.blocks)]
         self.network_of = {name: net for net in self.networks for name in net.net.names}
         state, live, coef = [], [], []
         for bp in self.plans:

@@ -18,7 +18,8 @@ from .devices import open_drivers
 __version__ = "0.1.0"
 
 
-def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devices=None, drivers=None):
+def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devices=None, drivers=None,
+           safety=False, chunk=1 << 14):
     """Render a patch (a Patch or a path) offline: `.audio` (frames × channels), `.probes`, `.rate`.
 
     Devices run on their patch's drivers (the simulated device by default); `devices` maps a
@@ -28,7 +29,8 @@ def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devi
         patch = load(patch)
     if drivers is None:
         drivers = open_drivers(patch, devices)
-    return _render(patch, seconds, probes=probes, engine=engine, progress=progress, drivers=drivers)
+    return _render(patch, seconds, probes=probes, engine=engine, progress=progress, drivers=drivers,
+                   safety=safety, chunk=chunk)
 
 
 __all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "PatchError", "Problem",

@@ -58,6 +58,12 @@ def _parser():
                       help="what the spectrogram shows (default: the audio)")
     plot.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
     plot.add_argument("--title", default=None)
+
+    modes = sub.add_parser("modes", help="predicted modal frequencies of each mass-spring network")
+    modes.add_argument("patch")
+    modes.add_argument("--count", type=int, default=20, metavar="N", help="modes per network (default 20)")
+    modes.add_argument("--json", action="store_true", help="machine-readable")
+    modes.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
     return ap
 
 
@@ -108,7 +114,7 @@ def _cmd_check(args):
 def _cmd_run(args):
     from .devices import DeviceError, open_drivers
     from .devices.wav import write_wav
-    from .graph.engine import render
+    from .graph.engine import SafetyStop, render
     import numpy as np
     choices = {}
     for item in args.device:
@@ -121,12 +127,19 @@ def _cmd_run(args):
     patch = load(args.patch, overrides=args.overrides)
     stem = os.path.splitext(os.path.basename(args.patch))[0]
     out = args.out or f"{stem}.wav"
+    stopped = None
     try:
         drivers = open_drivers(patch, choices)
         result = render(patch, args.seconds, probes=args.probe, engine=args.engine,
-                        progress=False if args.quiet else None, drivers=drivers)
+                        progress=False if args.quiet else None, drivers=drivers, safety=True)
     except (PlanError, DeviceError) as exc:
         raise UsageError(str(exc)) from None
+    except (SafetyStop, KeyboardInterrupt) as exc:
+        # the force was already zeroed; keep what was rendered
+        result = getattr(exc, "result", None)
+        stopped = str(exc) or "interrupted"
+        if result is None:
+            raise
     written = []
     if result.audio.shape[1]:
         write_wav(out, result.audio, result.rate)
@@ -138,9 +151,15 @@ def _cmd_run(args):
     if not written:
         print(f"hapticgraph: {args.patch} has no audio_out block and no --probe was given; nothing written",
               file=sys.stderr)
-    peak = float(np.max(np.abs(result.audio))) if result.audio.size else 0.0
-    print(f"{args.patch}: {args.seconds:g} s at {result.rate:g} Hz ({args.engine}; compile "
+    finite = result.audio[np.isfinite(result.audio)]
+    peak = float(np.max(np.abs(finite))) if finite.size else 0.0
+    seconds = result.audio.shape[0] / result.rate
+    print(f"{args.patch}: {seconds:g} s at {result.rate:g} Hz ({args.engine}; compile "
           f"{result.compile_seconds:.2f} s, run {result.run_seconds:.2f} s), peak {peak:.4g} -> {', '.join(written) or '-'}")
+    if stopped:
+        print(f"hapticgraph: stopped after {seconds:.3f} s: {stopped}; the force sent was zeroed first, "
+              f"what was rendered is written", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -166,6 +185,34 @@ def _cmd_plot(args):
     return 0
 
 
+def _cmd_modes(args):
+    """The lowest modes of each network: K φ = ω² M φ (locked cells removed, damping ignored),
+    sounding at f = (fs/π)·asin(ω/(2 fs)) under the half-step scheme; rigid modes print as 0 Hz."""
+    from .graph.modes import network_modes
+    if args.count < 1:
+        raise UsageError("--count must be at least 1")
+    patch = load(args.patch, overrides=args.overrides)
+    nets = network_modes(patch, args.count)
+    if args.json:
+        print(json.dumps({"patch": args.patch, "rate": patch.rate, "networks": [m.as_dict() for m in nets]},
+                         indent=2))
+        return 0
+    if not nets:
+        print(f"{args.patch}: no mass-spring network")
+        return 0
+    for m in nets:
+        print(f"{m.name}: {m.cells} moving cells, {m.locked} locked ({m.method}); half-step scheme at "
+              f"{patch.rate:g} Hz, damping ignored")
+        print(f"  {'mode':>4}  {'f [Hz]':>14}  {'continuous [Hz]':>15}  {'f/f1':>8}")
+        first = next((f for f in m.frequencies if f > 0), None)
+        for i, (f, fc) in enumerate(zip(m.frequencies, m.continuous), 1):
+            ratio = f"{f / first:8.4f}" if first and f > 0 else f"{'rigid' if f == 0 else '-':>8}"
+            print(f"  {i:4d}  {f:14.6f}  {fc:15.6f}  {ratio}")
+        for note in m.notes:
+            print(f"  note: {note}")
+    return 0
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     try:
@@ -173,7 +220,7 @@ def main(argv=None):
             print(json.dumps(patch_schema(Registry()), indent=2))
             return 0
         return {"run": _cmd_run, "check": _cmd_check, "blocks": _cmd_blocks,
-                "plot": _cmd_plot}[args.command](args)
+                "plot": _cmd_plot, "modes": _cmd_modes}[args.command](args)
     except PatchError as exc:
         for problem in exc.problems:
             print(problem, file=sys.stderr)

@@ -1,0 +1,62 @@
+"""A numerical blow-up or a runaway zeroes the force sent to the hand in that very block, stops
+the run with a clear message, and keeps everything rendered so far."""
+import numpy as np
+import pytest
+from scipy.io import wavfile
+
+from hapticgraph import load, render
+from hapticgraph.cli import main
+from hapticgraph.devices import open_drivers
+from hapticgraph.graph.engine import SafetyStop
+
+# a feedback loop with gain 2: doubles every 10 samples, overflows to inf within a second
+BLOWUP = """
+hapticgraph: 1
+rate: 8000
+devices:
+  finger: {driver: simulated, max_force: 2.0}
+blocks:
+  kick: {type: pluck, duration: 0.001}
+  loop: {type: delay, length: 10}
+  amp: {type: gain, gain: 2.0}
+  pick: {type: haptic, device: finger}
+  soft: {type: gain, gain: 1e-30}
+  out: {type: audio_out, channels: 1}
+connect:
+  - kick.out -> loop.in
+  - amp.out -> loop.in
+  - loop.out -> amp.in
+  - amp.out -> soft.in
+  - soft.out -> pick.force
+  - soft.out -> out.ch0
+"""
+
+
+def test_blowup_zeroes_force_and_stops(write_patch):
+    patch = load(write_patch(BLOWUP))
+    drivers = open_drivers(patch)
+    with pytest.raises(SafetyStop, match="numerical blow-up|runaway") as info:
+        render(patch, 5.0, drivers=drivers, safety=True, chunk=256)
+    partial = info.value.result
+    assert 0 < partial.audio.shape[0] < 5 * 8000
+    assert partial.audio.shape[0] % 256 == 0          # stopped at the end of the faulty block
+    sent = drivers["finger"].force_sent()
+    assert len(sent) == partial.audio.shape[0] + 256      # the faulty block's audio is dropped
+    assert np.all(np.isfinite(sent)) and np.all(np.abs(sent) <= 2.0)
+    assert np.all(sent[-256:] == 0.0)                   # the faulty block sent no force at all
+
+
+def test_run_keeps_what_was_rendered(write_patch, tmp_path, capsys):
+    path = write_patch(BLOWUP)
+    out = tmp_path / "blow.wav"
+    assert main(["run", str(path), "--seconds", "5", "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "stopped after" in err and "the force sent was zeroed first" in err and "Traceback" not in err
+    rate, data = wavfile.read(out)
+    assert rate == 8000 and 0 < len(data) < 5 * 8000
+
+
+def test_offline_render_without_safety_keeps_going(write_patch):
+    patch = load(write_patch(BLOWUP))
+    r = render(patch, 2.0, chunk=256)
+    assert r.audio.shape[0] == 16000 and not np.all(np.isfinite(r.audio))
