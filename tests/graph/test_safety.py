@@ -47,7 +47,7 @@ def test_blowup_zeroes_force_and_stops(write_patch):
 
 
 def test_run_keeps_what_was_rendered(write_patch, tmp_path, capsys):
-    path = write_patch(BLOWUP)
+    path = write_patch(BLOWUP.replace("length: 10", "length: 300"))   # blows up after the first block
     out = tmp_path / "blow.wav"
     assert main(["run", str(path), "--seconds", "5", "--out", str(out), "--quiet"]) == 1
     err = capsys.readouterr().err
