@@ -296,6 +296,14 @@ class Program:
         raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
                         f"{port!r}; it has: {', '.join(names)}")
 
+    def edit_cell(self, block, index, action):
+        """Lock, unlock or cut `block[index]` between kernel calls (needs `editable=True`)."""
+        from .patch import Endpoint
+        net = self.network_of.get(block)
+        if net is None:
+            raise PlanError(f"{block!r} is not a lattice or cell block")
+        return net.edit(Endpoint(block, tuple(index) if index is not None else None, "position"), action)
+
     def set_param(self, block, name, value):
         """Change a live parameter between kernel calls (control rate): re-derives coefficients."""
         bp = self.by_name[block]
@@ -334,7 +342,41 @@ class NetPlan:
         self.slots["scale"] = len(prog.arrays)
         prog.arrays.append(self.scale)
         self.forces = {}          # flat index -> [sources]
+        self.inv_m0 = net.inv_m.copy()
+        self.cut_cells = {}
         self.scales = []          # (component, column, binding, invert)
+
+    def edit(self, end, action):
+        net = self.net
+        if net.stencil is not None:
+            raise PlanError(f"network {', '.join(net.names)} runs on a stencil; start the session "
+                            "editable to lock, unlock or cut cells")
+        comp = net.by_name[end.block]
+        if comp.shape:
+            from ..blocks.lattice import index_problem
+            msg = index_problem(list(comp.shape), list(end.index or ()))
+            if msg:
+                raise PlanError(f"{end.block}: {msg}")
+        flat = comp.flat(end.index)
+        if flat is None or self.cut_cells.get(flat):
+            raise PlanError(f"{end.block}{list(end.index or [])} is cut")
+        if action == "lock":
+            net.inv_m[flat] = 0.0
+            net.vel[flat] = 0.0
+        elif action == "unlock":
+            net.inv_m[flat] = self.inv_m0[flat]
+        elif action == "cut":
+            # the cell leaves the network: no mass, no springs to it or from it, at rest at 0
+            net.inv_m[flat] = 0.0
+            net.pos[flat] = net.vel[flat] = 0.0
+            net.anchor[flat] = 0.0
+            for rowptr, col, k in ((net.rowptr, net.col, net.kr), (net.jrow, net.jcol, net.jk)):
+                k[rowptr[flat]:rowptr[flat + 1]] = 0.0
+                k[col == flat] = 0.0
+            self.cut_cells[flat] = True
+        else:
+            raise PlanError(f"unknown cell edit {action!r} (lock, unlock, cut)")
+        return flat
 
     def element(self, end):
         comp = self.net.by_name[end.block]

@@ -24,3 +24,17 @@ def decay_time(envelope, fs, drop_db=20.0):
     keep = env > env.max() * 1e-4
     slope = np.polyfit(t[keep], 20 * np.log10(env[keep]), 1)[0]
     return -drop_db / slope
+
+
+def spectral_peak(y, fs, fmin, fmax):
+    """Frequency of the largest spectral peak in [fmin, fmax] (Hann window, zero-padded 4×,
+    parabolic interpolation on the log magnitude): right for dispersive (inharmonic) tones,
+    where the autocorrelation's peak is pulled off the fundamental."""
+    y = np.asarray(y, dtype=np.float64) - np.mean(y)
+    n = 4 * len(y)
+    mag = np.abs(np.fft.rfft(y * np.hanning(len(y)), n))
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    band = np.nonzero((freqs >= fmin) & (freqs <= fmax))[0]
+    k = band[int(np.argmax(mag[band]))]
+    a, b, c = np.log(mag[k - 1: k + 2] + 1e-300)
+    return (k + 0.5 * (a - c) / (a - 2 * b + c)) * fs / n
