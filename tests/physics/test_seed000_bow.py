@@ -5,7 +5,7 @@ the bow block between the junction's sensed velocity and the device's velocity, 
 force into the junction and its reaction into the device. Ideal Helmholtz motion under the bow:
 the string sticks to the bow (v = v_bow) for a fraction 1 − β of each period and flies back at
 −v_stick·(1 − β)/β for β, with the string's period N/fs; the displacement is a sawtooth.
-The analysis window starts 1.0 s into the stroke (the motion is settled by ≈ 0.6 s).
+The analysis window starts 1.0 s into the stroke (one clean slip per period from ≈ 0.42 s on).
 """
 import pathlib
 
