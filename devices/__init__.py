@@ -2,6 +2,7 @@
 import os
 
 from .files import WavInput
+from .hid import HidDriver
 from .simulated import SimulatedDevice, SimulatedHaptic
 
 
@@ -10,7 +11,7 @@ def _replay(name, spec):
     return ReplayDevice(name, spec)
 
 
-DRIVERS = {"simulated": SimulatedDevice, "replay": _replay}
+DRIVERS = {"simulated": SimulatedDevice, "hid": HidDriver, "replay": _replay}
 
 
 class DeviceError(Exception):
