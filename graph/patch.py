@@ -12,6 +12,7 @@ import yaml
 
 from .errors import Collector, PatchError
 from .network import check_springs, check_stability
+from .profiles import attach_profiles, profile_of
 from .registry import Registry, RegistryError
 from .schedule import schedule
 from .schema import patch_schema
@@ -126,6 +127,7 @@ def load(path, overrides=(), registry=None):
                     problems.add(line, str(exc))
     _apply_overrides(doc, overrides, problems)
     _check_schema(doc, registry, problems)
+    attach_profiles(doc.get("devices"), os.path.dirname(os.path.abspath(path)), problems)
     rate = float(doc.get("rate", DEFAULT_RATE)) if isinstance(doc.get("rate"), (int, float)) else DEFAULT_RATE
     blocks = _instances(doc, registry, rate, problems)
     connections = _connections(doc, blocks, problems)
@@ -296,10 +298,14 @@ RESERVED_AXES = ("t", "x", "v", "force", "device")
 
 def device_axes(devices, name):
     """A device's extra axes and buttons: for a simulated device, the keys its script keyframes
-    carry besides t and x (in order of appearance); otherwise its `axes` list."""
+    carry besides t and x (in order of appearance); for `driver: hid`, its profile's axes and
+    buttons; otherwise its `axes` list."""
     spec = devices.get(name) if isinstance(devices, dict) else None
     if not isinstance(spec, dict):
         return []
+    if spec.get("driver") == "hid":
+        profile = profile_of(spec)
+        return list(profile.ports) if profile is not None else []
     axes = [a for a in spec.get("axes", []) if isinstance(a, str)] if isinstance(spec.get("axes"), list) else []
     for key in spec.get("script") or []:
         if isinstance(key, dict):

@@ -30,6 +30,16 @@ def device_schema():
                             "description": "keyframes the hand follows, linear between them"},
                  "hold": {"type": "boolean", "default": True,
                           "description": "keep the last keyframe (true) or repeat the script (false)"}}
+    usb_id = {"type": "integer", "minimum": 0, "maximum": 0xFFFF}
+    hid = {**common,
+           "profile": {"type": "string", "minLength": 1,
+                       "description": "a shipped HID profile's name (gamepad, mouse, haptic_1dof) "
+                                      "or a profile .yaml file beside the patch"},
+           "vendor_id": {**usb_id, "description": "USB vendor id, if not the profile's"},
+           "product_id": {**usb_id, "description": "USB product id, if not the profile's"},
+           "serial": {"type": "string", "description": "open the device with this serial number"},
+           "path": {"type": "string", "minLength": 1,
+                    "description": "open the device at this hidapi path (`hapticgraph devices` lists them)"}}
     return {
         "type": "object",
         "properties": {"driver": common["driver"]},
@@ -37,7 +47,7 @@ def device_schema():
             {"if": {"properties": {"driver": {"const": "simulated"}}},
              "then": {"properties": simulated, "additionalProperties": False}},
             {"if": {"required": ["driver"], "properties": {"driver": {"const": "hid"}}},
-             "then": {"properties": {**common, "profile": {"type": "string"}}, "required": ["profile"]}},
+             "then": {"properties": hid, "required": ["profile"], "additionalProperties": False}},
             {"if": {"required": ["driver"], "properties": {"driver": {"const": "replay"}}},
              "then": {"properties": {**common, "file": {"type": "string"}}, "required": ["file"]}},
         ],
