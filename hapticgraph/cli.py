@@ -25,7 +25,8 @@ def _parser():
 
     run = sub.add_parser("run", help="render a patch offline to a 32-bit float WAV (and probes to .npz)")
     run.add_argument("patch")
-    run.add_argument("--seconds", type=float, default=2.0, help="length to render (default 2)")
+    run.add_argument("--seconds", type=float, default=None,
+                     help="length to render (default 2; with --replay, the take's length)")
     run.add_argument("--out", help="WAV file to write (default: the patch's name, .wav, here)")
     run.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT",
                      help="record a port (repeatable); a cell's port is name[i, j].port")
@@ -37,6 +38,33 @@ def _parser():
     run.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER",
                      help="choose a device's driver (simulated, hid, replay)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--replay", metavar="TAKE.hgrec",
+                     help="feed every device and live input from a take made by `play --record` "
+                          "(--seconds defaults to the take's length)")
+
+    play = sub.add_parser("play", help="play a patch in real time through the sound card")
+    play.add_argument("patch")
+    play.add_argument("--audio-device", metavar="D", help="output device: index or (part of) its name "
+                      "(see `hapticgraph devices`; default: the system's default)")
+    play.add_argument("--input-device", metavar="D", help="input device for live audio_in blocks (default: the default)")
+    play.add_argument("--blocksize", type=int, default=128, metavar="N",
+                      help="frames per audio callback, the kernel's block (default 128)")
+    play.add_argument("--latency", default="low", metavar="low|high|SECONDS",
+                      help="PortAudio's suggested output latency (default low)")
+    play.add_argument("--seconds", type=float, default=None, metavar="S",
+                      help="stop after S seconds (default: play until Ctrl-C)")
+    play.add_argument("--record", metavar="TAKE", help="record the device inputs to TAKE.hgrec and the "
+                      "audio to TAKE.wav (replay with `hapticgraph run PATCH --replay TAKE.hgrec`)")
+    play.add_argument("--replay", metavar="TAKE.hgrec", help="play a recorded take back through the sound card")
+    play.add_argument("--watch", action="store_true", help="reload the patch when its file changes, keeping "
+                      "the state of every block that did not change")
+    play.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
+                      help="override a parameter (repeatable)")
+    play.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER",
+                      help="choose a device's driver (simulated, hid, replay)")
+    play.add_argument("--fade", type=float, default=0.005, metavar="SECONDS", help=argparse.SUPPRESS)
+
+    sub.add_parser("devices", help="list sound cards and HID devices")
 
     check = sub.add_parser("check", help="check a patch and report every problem")
     check.add_argument("patch")
@@ -111,25 +139,42 @@ def _cmd_check(args):
     return 0
 
 
+def _device_choices(items):
+    choices = {}
+    for item in items:
+        name, sep, driver = item.partition("=")
+        if not sep or not name or not driver:
+            raise UsageError(f"--device {item!r}: expected NAME=DRIVER")
+        choices[name] = driver
+    return choices
+
+
 def _cmd_run(args):
     from .devices import DeviceError, open_drivers
     from .devices.wav import write_wav
     from .graph.engine import SafetyStop, render
     import numpy as np
-    choices = {}
-    for item in args.device:
-        name, sep, driver = item.partition("=")
-        if not sep or not name or not driver:
-            raise UsageError(f"--device {item!r}: expected NAME=DRIVER")
-        choices[name] = driver
-    if args.seconds <= 0:
+    choices = _device_choices(args.device)
+    if args.seconds is not None and args.seconds <= 0:
         raise UsageError("--seconds must be positive")
+    if args.replay and choices:
+        raise UsageError("--replay feeds every device from the take; it takes no --device")
     patch = load(args.patch, overrides=args.overrides)
+    if args.replay:
+        from .devices.record import replay_drivers
+        try:
+            take, replayed = replay_drivers(patch, args.replay)
+        except DeviceError as exc:
+            raise UsageError(str(exc)) from None
+        if args.seconds is None and take.frames:
+            args.seconds = take.seconds
+    if args.seconds is None:
+        args.seconds = 2.0
     stem = os.path.splitext(os.path.basename(args.patch))[0]
     out = args.out or f"{stem}.wav"
     stopped = None
     try:
-        drivers = open_drivers(patch, choices)
+        drivers = replayed if args.replay else open_drivers(patch, choices)
         result = render(patch, args.seconds, probes=args.probe, engine=args.engine,
                         progress=False if args.quiet else None, drivers=drivers, safety=True)
     except (PlanError, DeviceError) as exc:
@@ -160,6 +205,147 @@ def _cmd_run(args):
         print(f"hapticgraph: stopped after {seconds:.3f} s: {stopped}; the force sent was zeroed first, "
               f"what was rendered is written", file=sys.stderr)
         return 1
+    return 0
+
+
+def _parse_latency(text):
+    if text in ("low", "high"):
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise UsageError(f"--latency {text!r}: expected low, high or a number of seconds") from None
+    if not 0 < value <= 2:
+        raise UsageError(f"--latency {text!r}: expected a number of seconds in (0, 2]")
+    return value
+
+
+def _cmd_play(args):
+    """Real-time play: the sound card's clock drives the kernel block by block."""
+    import signal
+    from .devices import DeviceError, open_drivers
+    from .devices import audio
+    from .devices.record import Recorder, replay_drivers
+    if args.blocksize < 1 or args.blocksize > 1 << 15:
+        raise UsageError(f"--blocksize {args.blocksize}: expected a number of frames from 1 to 32768")
+    if args.seconds is not None and args.seconds <= 0:
+        raise UsageError("--seconds must be positive")
+    if not 0 < args.fade <= 1:
+        raise UsageError("--fade must be in (0, 1] seconds")
+    latency = _parse_latency(args.latency)
+    choices = _device_choices(args.device)
+    if args.replay and choices:
+        raise UsageError("--replay feeds every device from the take; it takes no --device")
+    if args.replay and args.watch:
+        raise UsageError("--replay and --watch do not go together")
+    patch = load(args.patch, overrides=args.overrides)
+    try:
+        audio.sounddevice()
+    except audio.AudioError as exc:
+        print(f"hapticgraph: error: {exc}", file=sys.stderr)
+        return 1
+    try:
+        out_dev = audio.find_device(args.audio_device, "output", max(1, _audio_channels(patch)))
+        if args.replay:
+            take, drivers = replay_drivers(patch, args.replay)
+            if args.seconds is None and take.frames:
+                args.seconds = take.seconds
+        else:
+            drivers = open_drivers(patch, choices, live_input=audio.LiveInput.for_block)
+        live = [d for d in drivers.values() if isinstance(d, audio.LiveInput)]
+        in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
+        session = audio.play_session(patch, drivers, args.blocksize)
+        player = audio.Player(session, device=out_dev, blocksize=args.blocksize, latency=latency,
+                              input_device=in_dev, seconds=args.seconds, fade=args.fade)
+    except (PlanError, DeviceError, audio.AudioError) as exc:
+        raise UsageError(str(exc)) from None
+    if args.record:
+        kinds = {name: (choices.get(name) or spec.get("driver", "simulated")) for name, spec in patch.devices.items()}
+        kinds.update({d.name: "live audio input" for d in live})
+        try:
+            player.recorder = Recorder(args.record, session, player.out_channels, args.blocksize, kinds=kinds)
+        except OSError as exc:
+            player.stream.close()
+            raise UsageError(f"--record {args.record!r}: {exc.strerror or exc}") from None
+    watcher = None
+    if args.watch:
+        def make_session(old):
+            new_patch = load(args.patch, overrides=args.overrides)
+            drivers, opened, unused = audio.reload_drivers(old.prog.patch, new_patch, old.prog.drivers, choices,
+                                                           live_input=audio.LiveInput.for_block)
+            return audio.play_session(new_patch, drivers, args.blocksize), opened, unused
+        watcher = audio.Watcher(player, args.patch, make_session).start()
+
+    def terminate(signum, frame):
+        raise KeyboardInterrupt
+    previous = signal.signal(signal.SIGTERM, terminate)
+    until = f"for {args.seconds:g} s" if args.seconds else "until Ctrl-C"
+    print(f"hapticgraph: playing {patch.name!r} {until} on {player.device_name}", file=sys.stderr)
+    try:
+        report = player.run()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        if watcher is not None:
+            watcher.stop()
+    for line in report.lines(args.patch):
+        print(line)
+    if player.recorder is not None:
+        rec = player.recorder
+        print(f"  recorded {rec.rows_written} samples of device inputs to {rec.path} and "
+              f"{rec.frames} frames of audio to {rec.wav_path}"
+              + (f"; {rec.dropped} samples DROPPED (the disk was too slow)" if rec.dropped else "")
+              + (f"; inputs not recorded after a reload: {rec.inputs_stopped}" if rec.inputs_stopped else ""))
+    if report.problem:
+        print(f"hapticgraph: stopped after {report.seconds:.3f} s: {report.problem}; the force sent was "
+              f"zeroed in that block and the audio muted with a {1e3 * args.fade:g} ms fade", file=sys.stderr)
+        return 1
+    if report.interrupted:
+        print(f"hapticgraph: interrupted after {report.seconds:.3f} s; faded out and stopped", file=sys.stderr)
+    return 0
+
+
+def _audio_channels(patch):
+    for inst in patch.blocks.values():
+        if getattr(inst.cls, "audio_sink", False):
+            return len(inst.inputs)
+    return 0
+
+
+def _cmd_devices(args):
+    """Sound cards (PortAudio) and HID devices (hidapi)."""
+    from .devices import audio
+    print("Sound cards (PortAudio):")
+    try:
+        cards = audio.sound_cards()
+    except audio.AudioError as exc:
+        cards = None
+        print(f"  unavailable: {exc}")
+    if cards is not None and not cards:
+        print("  none found")
+    for c in cards or ():
+        marks = [m for m, on in (("default output", c["default_out"]), ("default input", c["default_in"])) if on]
+        print(f"  {c['index']:3d}  {c['name']}  [{c['hostapi']}]  in {c['inputs']}, out {c['outputs']}, "
+              f"{c['rate']:g} Hz{'  (' + ', '.join(marks) + ')' if marks else ''}")
+    print("HID devices (hidapi):")
+    try:
+        from .devices.hid import list_hid_devices
+        hids = list_hid_devices()
+    except (ImportError, AttributeError) as exc:
+        print(f"  unavailable: {exc}")
+        return 0
+    except Exception as exc:  # noqa: BLE001 - the listing must not crash on a busy device
+        print(f"  unavailable: {type(exc).__name__}: {exc}")
+        return 0
+    if not hids:
+        print("  none found")
+    for h in hids:
+        if isinstance(h, dict):
+            vid, pid = h.get("vendor_id", 0), h.get("product_id", 0)
+            name = " ".join(x for x in (h.get("manufacturer_string"), h.get("product_string")) if x) or "?"
+            extra = f"  profile {h['profile']}" if h.get("profile") else ""
+            print(f"  {vid:04x}:{pid:04x}  {name}  {h.get('path', b'')!s}{extra}")
+        else:
+            print(f"  {h}")
     return 0
 
 
@@ -220,7 +406,8 @@ def main(argv=None):
             print(json.dumps(patch_schema(Registry()), indent=2))
             return 0
         return {"run": _cmd_run, "check": _cmd_check, "blocks": _cmd_blocks,
-                "plot": _cmd_plot, "modes": _cmd_modes}[args.command](args)
+                "plot": _cmd_plot, "modes": _cmd_modes, "play": _cmd_play,
+                "devices": _cmd_devices}[args.command](args)
     except PatchError as exc:
         for problem in exc.problems:
             print(problem, file=sys.stderr)
