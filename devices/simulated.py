@@ -33,10 +33,15 @@ class SimulatedHaptic(Haptic, name="simulated_haptic"):
         return pos, vel
 
     @staticmethod
-    def update(pos, vel, force, hand_x, hand_v, mass, hand_stiffness, hand_damping, max_force, fs):
+    def derive(p, fs):
+        # reciprocals once, so the per-sample update multiplies instead of dividing twice
+        return {"dt_over_m": 1.0 / (p.mass * fs), "dt": 1.0 / fs}
+
+    @staticmethod
+    def update(pos, vel, force, hand_x, hand_v, hand_stiffness, hand_damping, max_force, dt_over_m, dt):
         f = hand_stiffness * (hand_x - pos) + hand_damping * (hand_v - vel) + clamp_force(force, max_force)
-        vel = vel + f / (mass * fs)
-        return pos + vel / fs, vel
+        vel = vel + f * dt_over_m
+        return pos + vel * dt, vel
 
 
 class SimulatedDevice(Driver):

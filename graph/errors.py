@@ -20,7 +20,8 @@ class PatchError(Exception):
     """A patch that must not run; `problems` lists everything found, in file order."""
 
     def __init__(self, problems):
-        self.problems = sorted(problems, key=lambda p: (p.file, p.line))
+        unique = {(p.file, p.line, p.message): p for p in problems}
+        self.problems = sorted(unique.values(), key=lambda p: (p.file, p.line))
         super().__init__("\n".join(str(p) for p in self.problems))
 
 

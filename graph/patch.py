@@ -128,7 +128,9 @@ def load(path, overrides=(), registry=None):
     _apply_overrides(doc, overrides, problems)
     _check_schema(doc, registry, problems)
     attach_profiles(doc.get("devices"), os.path.dirname(os.path.abspath(path)), problems)
-    rate = float(doc.get("rate", DEFAULT_RATE)) if isinstance(doc.get("rate"), (int, float)) else DEFAULT_RATE
+    raw_rate = doc.get("rate", DEFAULT_RATE)
+    valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
+    rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema
     blocks = _instances(doc, registry, rate, problems)
     connections = _connections(doc, blocks, problems)
     before = len(problems.problems)
@@ -282,6 +284,7 @@ def _instances(doc, registry, rate, problems):
                 if not os.path.isfile(path):
                     problems.add(inst.line_of(pname), f"block {name!r} ({cls.type_name}): parameter {pname!r}: "
                                                       f"no file {values[pname]!r} beside the patch")
+        before = len(problems.problems)
         try:
             for param, message in cls.check(inst.params, rate):
                 problems.add(inst.line_of(param) if param else inst.line,
@@ -289,7 +292,8 @@ def _instances(doc, registry, rate, problems):
                              + f": {message}")
         except Exception as exc:  # noqa: BLE001 - a plugin's check must not crash the loader
             problems.add(inst.line, f"block {name!r} ({cls.type_name}): its check failed: {exc!r}")
-        out[name] = inst
+        if len(problems.problems) == before:
+            out[name] = inst   # a block with problems takes no further part (wiring, networks)
     return out
 
 
@@ -307,7 +311,8 @@ def device_axes(devices, name):
         profile = profile_of(spec)
         return list(profile.ports) if profile is not None else []
     axes = [a for a in spec.get("axes", []) if isinstance(a, str)] if isinstance(spec.get("axes"), list) else []
-    for key in spec.get("script") or []:
+    script = spec.get("script")
+    for key in script if isinstance(script, list) else []:
         if isinstance(key, dict):
             axes += [k for k in key if k not in RESERVED_AXES and k not in axes]
     return axes

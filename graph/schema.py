@@ -44,7 +44,7 @@ def device_schema():
         "type": "object",
         "properties": {"driver": common["driver"]},
         "allOf": [
-            {"if": {"properties": {"driver": {"const": "simulated"}}},
+            {"if": {"type": "object", "properties": {"driver": {"const": "simulated"}}},
              "then": {"properties": simulated, "additionalProperties": False}},
             {"if": {"required": ["driver"], "properties": {"driver": {"const": "hid"}}},
              "then": {"properties": hid, "required": ["profile"], "additionalProperties": False}},
@@ -61,7 +61,7 @@ def patch_schema(registry):
         "type": "object",
         "required": ["type"],
         "properties": {"type": {"enum": names, "description": "the block type"}},
-        "allOf": [{"if": {"properties": {"type": {"const": n}}, "required": ["type"]},
+        "allOf": [{"if": {"type": "object", "properties": {"type": {"const": n}}, "required": ["type"]},
                    "then": {"$ref": f"#/$defs/{n}"}} for n in names],
     }
     device = device_schema()
