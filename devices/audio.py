@@ -162,10 +162,11 @@ class Report:
         self.problem, self.interrupted = p.problem, p.interrupted
         self.swaps, self.reload_errors = p.swaps, p.reload_errors
         self.latency, self.blocksize, self.device = p.latency, p.blocksize, p.device_name
+        self.wall = p.wall
 
     def lines(self, name):
         flags = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.flags.items())
-        out = [f"{name}: played {self.seconds:.3f} s at {self.rate:g} Hz on {self.device} in blocks of "
+        out = [f"{name}: played {self.seconds:.3f} s (wall {self.wall:.3f} s) at {self.rate:g} Hz on {self.device} in blocks of "
                f"{self.blocksize} ({1e3 * self.blocksize / self.rate:.2f} ms; output latency "
                f"{1e3 * self.latency:.1f} ms)",
                f"  callbacks {self.callbacks}; xruns {self.xruns} ({flags}); callback load mean "
@@ -209,6 +210,7 @@ class Player:
         self.loads = np.zeros(1 << 16)
         self.flag_counts = dict.fromkeys(FLAGS, 0)
         self.swaps = self.reload_errors = 0
+        self.wall = 0.0
         sd = self.sd
         live = bool(self.bound.live)
         try:
@@ -371,6 +373,7 @@ class Player:
         session.start()          # drivers start here, before the first callback
         try:
             self.stream.start()
+            began = time.perf_counter()
             try:
                 while not self.done.wait(0.05):
                     if on_tick is not None:
@@ -379,6 +382,7 @@ class Player:
                 self.interrupted = True
                 self.request_stop()
                 self.done.wait(0.5 + 4 * self.blocksize / self.rate + self.nfade / self.rate)
+            self.wall = time.perf_counter() - began
         finally:
             try:
                 self.stream.stop()
