@@ -76,6 +76,11 @@ def _parser():
 
     sub.add_parser("schema", help="print the JSON Schema of a patch (for editors)")
 
+    graph = sub.add_parser("graph", help="export the patch graph as Graphviz dot or Mermaid")
+    graph.add_argument("patch")
+    graph.add_argument("--format", choices=("dot", "mermaid"), default="dot")
+    graph.add_argument("-o", "--out", metavar="FILE", help="write here instead of standard output")
+
     plot = sub.add_parser("plot", help="render a patch and draw probe traces and a spectrogram to PNG")
     plot.add_argument("patch")
     plot.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT", help="a trace to draw (repeatable)")
@@ -399,6 +404,18 @@ def _cmd_modes(args):
     return 0
 
 
+def _cmd_graph(args):
+    from .graph.export import to_dot, to_mermaid
+    patch = load(args.patch)
+    text = (to_dot if args.format == "dot" else to_mermaid)(patch)
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as f:
+            f.write(text)
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     try:
@@ -406,7 +423,7 @@ def main(argv=None):
             print(json.dumps(patch_schema(Registry()), indent=2))
             return 0
         return {"run": _cmd_run, "check": _cmd_check, "blocks": _cmd_blocks,
-                "plot": _cmd_plot, "modes": _cmd_modes, "play": _cmd_play,
+                "plot": _cmd_plot, "graph": _cmd_graph, "modes": _cmd_modes, "play": _cmd_play,
                 "devices": _cmd_devices}[args.command](args)
     except PatchError as exc:
         for problem in exc.problems:
