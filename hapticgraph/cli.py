@@ -72,6 +72,7 @@ def _parser():
 
     blocks = sub.add_parser("blocks", help="list the block types (built-in and plugins)")
     blocks.add_argument("--json", action="store_true", help="machine-readable")
+    blocks.add_argument("--markdown", action="store_true", help="the block reference (docs/blocks.md)")
     blocks.add_argument("--patch", help="also load this patch's plugins")
 
     sub.add_parser("schema", help="print the JSON Schema of a patch (for editors)")
@@ -122,6 +123,10 @@ def _cmd_blocks(args):
     registry = Registry()
     if args.patch:
         registry = load(args.patch).registry
+    if args.markdown:
+        from .reference import block_reference
+        sys.stdout.write(block_reference(None if not args.patch else registry))
+        return 0
     rows = [describe_block(registry.types[n], registry.origin[n]) for n in sorted(registry.types)]
     if args.json:
         print(json.dumps(rows, indent=2))
