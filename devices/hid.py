@@ -28,7 +28,7 @@ Velocity estimate (profile `velocity: estimate`)
     v_k = v_{k−1} + a·(v_raw − v_{k−1}) with a = 1 − exp(−2π·velocity_cutoff·interval). Devices
     that report only on change (mice, gamepads) send nothing when still: after two intervals
     without a report the estimator takes a step with no motion (v_raw = 0), and again every
-    two intervals, so v decays to 0. The first report gives v_raw = 0.
+    two intervals, so v decays to 0 (exactly 0 below 1 nm/s). The first report gives v_raw = 0.
 
 How forces reach the device
     `send` takes the LAST sample of the block's force (the most recent: the least delay; a block
@@ -341,9 +341,11 @@ class Decoder:
     def still(self, out):
         """A step with no motion (for report-on-change devices that went quiet); False if the
         velocity is not estimated (nothing changes then)."""
-        if not self.estimate or self.x_prev is None:
+        if not self.estimate or self.x_prev is None or self.v == 0.0:
             return False
         self.v += self.alpha * (0.0 - self.v)
+        if abs(self.v) < 1e-9:          # m/s: at rest (and no more steps until it moves)
+            self.v = 0.0
         self.row[1] = self.v
         out[:] = self.row
         return True
@@ -477,6 +479,7 @@ class HidDriver(Driver):
             k = self.w % RING
             self.stamps[k], self.kinds[k] = stamp, kind
             if kind == _LOSS:
+                self.ring[k] = self.ring[(k - 1) % RING] if self.w else 0.0    # the values hold
                 self._loss = message
                 if not self.stamped:
                     self.lost = message
@@ -553,7 +556,9 @@ class HidDriver(Driver):
                 self.held[:] = self.ring[(w - 1) % RING]
             ext[:] = self.held
             return
-        rate, end = self.rate, (t0 + n - 1) / self.rate
+        # a report stamped s reaches sample ceil(s·rate) on: this block needs those stamped up to `end`
+        rate, last = self.rate, t0 + n - 1
+        end = (last + 1e-6) / rate
         ext[:] = self.held
         with self.cond:
             self.want = end
@@ -566,15 +571,15 @@ class HidDriver(Driver):
             beyond = False
             while self.r < w:
                 k = self.r % RING
-                stamp = self.stamps[k]
-                if stamp > end:
+                i = int(math.ceil(self.stamps[k] * rate - 1e-6))
+                if i > last:
                     beyond = True
                     break
                 if self.kinds[k] == _LOSS:
                     self.lost = self._loss
                     self.r = w
                     break
-                i = max(0, int(math.ceil(stamp * rate - 1e-6)) - t0)
+                i = max(0, i - t0)
                 ext[i:] = self.ring[k]
                 self.held[:] = self.ring[k]
                 self.r += 1

@@ -329,6 +329,7 @@ class _Checker:
         if not isinstance(value, LDict):
             self.add(_line(node, key), f"{where}.{key}: expected a mapping")
             return None
+        value.line = _line(node, key)     # problems of the whole mapping point at its key
         return value
 
     def integer(self, node, key, where, lo, hi, default=None, required=False):
@@ -458,6 +459,8 @@ def _fields(chk, node, key, where, keys, default_size, length, names):
             chk.add(line, f"{here}: the name {name!r} is used twice (first at line {names[name]})")
             continue
         names[name] = line
+        if isinstance(spec, LDict):
+            spec.line = line
         f = _field(chk, name, spec, here, keys, default_size, length, line)
         if f is not None:
             out.append(f)
@@ -526,6 +529,8 @@ def _parse(doc, path, problems):
         if force_node is None:
             chk.add(outp.line, "output: missing 'force' (the field that carries the force)")
         else:
+            if isinstance(force_node, LDict):
+                force_node.line = _line(outp, "force")
             force = _field(chk, "force", force_node, "output.force", FORCE_KEYS, 16, length, _line(outp, "force"))
         if max_force is None and "max_force" not in doc:
             chk.add(outp.line, "profile: a device with a force output needs `max_force` [N], "
