@@ -17,7 +17,7 @@ pcm.!default {{
     type file
     slave.pcm "null"
     file "{raw}"
-    format "raw"
+{infile}    format "raw"
 }}
 """
 
@@ -32,8 +32,9 @@ def portaudio_or_skip():
         pytest.skip(f"the PortAudio library (Debian libportaudio2) is not installed: {exc}")
 
 
-def alsa_file_env(folder):
-    """(env, raw_path): an environment whose ALSA default PCM appends float frames to raw_path."""
+def alsa_file_env(folder, infile=None):
+    """(env, raw_path): an environment whose ALSA default PCM appends float frames to raw_path
+    (and, with `infile`, captures from that raw file: a live input with no sound card)."""
     portaudio_or_skip()
     if not any(os.path.exists(p) for p in ("/usr/share/alsa/alsa.conf", "/etc/alsa/alsa.conf")):
         pytest.skip("ALSA's configuration (Debian libasound2-data) is not installed")
@@ -41,7 +42,7 @@ def alsa_file_env(folder):
     os.makedirs(os.path.join(folder, "alsa"), exist_ok=True)
     raw = os.path.join(folder, "out.raw")
     with open(os.path.join(folder, "alsa", "asoundrc"), "w", encoding="utf-8") as f:
-        f.write(ASOUNDRC.format(raw=raw))
+        f.write(ASOUNDRC.format(raw=raw, infile=f'    infile "{os.fspath(infile)}"\n' if infile else ""))
     env = dict(os.environ, XDG_CONFIG_HOME=folder, JACK_NO_START_SERVER="1",
                JACK_DEFAULT_SERVER="hapticgraph-no-server")
     return env, raw

@@ -107,3 +107,38 @@ def test_blowup_zeroes_force_and_fades(tmp_path, write_patch):
     # the card got the same: the tone, then the ramp to silence (and nothing after)
     end = np.flatnonzero(played)[-1]
     assert np.array_equal(played[end + 2 - len(heard):end + 2], heard) and not played[end + 1:].any()
+
+
+LIVE = """
+hapticgraph: 1
+rate: 44100
+blocks:
+  voice: {type: audio_in, gain: 0.5}
+  out: {type: audio_out, channels: 1}
+connect:
+  - voice.out -> out.ch0
+"""
+
+
+def test_live_audio_input(tmp_path, write_patch):
+    """An audio_in block with no file takes the sound card's input (here ALSA's file PCM reading a
+    raw file): the same samples reach the kernel, are recorded, and replay offline identically."""
+    sent = (0.5 * np.sin(2 * np.pi * 300 * np.arange(44100) / 44100)).astype(np.float32)
+    sent.tofile(tmp_path / "in.raw")
+    env, raw = alsa_file_env(tmp_path, infile=tmp_path / "in.raw")
+    path = write_patch(LIVE)
+    take = tmp_path / "voice"
+    p = hapticgraph(["play", path, "--seconds", 0.5, "--blocksize", 64, "--record", take], env)
+    assert p.returncode == 0, p.stderr
+    t = Take(f"{take}.hgrec")
+    assert t.frames == 22050 and t.header["drivers"]["voice"]["kind"] == "live audio input"
+    assert np.array_equal(t.inputs[:, 0], sent[:22050].astype(np.float64))   # what came in, as it came
+    _, heard = wavfile.read(f"{take}.wav")
+    assert np.array_equal(heard, (0.5 * sent[:22050].astype(np.float64)).astype(np.float32))
+    r = hapticgraph(["run", path, "--replay", f"{take}.hgrec", "--out", tmp_path / "again.wav", "--quiet"], env)
+    assert r.returncode == 0, r.stderr
+    _, again = wavfile.read(tmp_path / "again.wav")
+    assert np.array_equal(again.view(np.uint32), heard.view(np.uint32))
+    # without a sound card input, `run` refuses the live block with a clear message
+    r = hapticgraph(["run", path, "--out", tmp_path / "x.wav", "--quiet"], env)
+    assert r.returncode == 2 and "live input needs `play`" in r.stderr
