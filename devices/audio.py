@@ -406,9 +406,19 @@ def _incoming(patch):
 
 
 def _same(a, b):
+    """Deep equality of parameter values (dicts, lists, numpy arrays, numbers, strings)."""
+    seq = (list, tuple, np.ndarray)
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.dtype != object and b.dtype != object:
+        return a.shape == b.shape and bool(np.array_equal(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, seq) and isinstance(b, seq):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, (dict,) + seq) or isinstance(b, (dict,) + seq):
+        return False
     try:
         return bool(a == b)
-    except Exception:  # noqa: BLE001 - arrays and the like: treat as changed
+    except Exception:  # noqa: BLE001 - not comparable: treat as changed
         return False
 
 

@@ -265,18 +265,23 @@ def _cmd_play(args):
         live = [d for d in drivers.values() if isinstance(d, audio.LiveInput)]
         in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
         session = audio.play_session(patch, drivers, args.blocksize)
-        player = audio.Player(session, device=out_dev, blocksize=args.blocksize, latency=latency,
-                              input_device=in_dev, seconds=args.seconds, fade=args.fade)
     except (PlanError, DeviceError, audio.AudioError) as exc:
         raise UsageError(str(exc)) from None
+    recorder = None
     if args.record:
         kinds = {name: (choices.get(name) or spec.get("driver", "simulated")) for name, spec in patch.devices.items()}
         kinds.update({d.name: "live audio input" for d in live})
         try:
-            player.recorder = Recorder(args.record, session, player.out_channels, args.blocksize, kinds=kinds)
+            recorder = Recorder(args.record, session, max(1, session.prog.channels), args.blocksize, kinds=kinds)
         except OSError as exc:
-            player.stream.close()
             raise UsageError(f"--record {args.record!r}: {exc.strerror or exc}") from None
+    try:
+        player = audio.Player(session, device=out_dev, blocksize=args.blocksize, latency=latency,
+                              input_device=in_dev, seconds=args.seconds, fade=args.fade, recorder=recorder)
+    except audio.AudioError as exc:
+        if recorder is not None:
+            recorder.close()
+        raise UsageError(str(exc)) from None
     watcher = None
     if args.watch:
         def make_session(old):
