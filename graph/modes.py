@@ -27,7 +27,7 @@ dt²·Σk/m < 2 guarantees through Gershgorin's bound ω_c² ≤ 2·max Σk/m). 
 would grow without bound: its frequency is reported as NaN.
 
 What is ignored, and said so: damping (the modes are those of the lossless network; viscous
-damping γ lowers a mode only by a factor √(1 − (γ/2mω)²)), external blocks coupled to cells
+damping γ lowers a mode by about a factor √(1 − (γ/2mω)²)), external blocks coupled to cells
 (bows, junctions, couplers) and live inputs — each component's `mass`, `tension` and `damping`
 are taken at their patch values even when a connection drives them (a note says so).
 
@@ -42,7 +42,7 @@ import numpy as np
 from .network import Network, group
 
 DENSE_MAX = 800           # movable cells up to which the dense solver is used
-RIGID_TOL = 1e-9          # ω_c² below this fraction of the largest diagonal of M^-½KM^-½: a rigid mode
+RIGID_TOL = 1e-12         # ω_c² below this fraction of the largest diagonal of M^-½KM^-½: a rigid mode (roundoff: ~1e-16)
 
 
 def discrete_frequency(omega_c, rate):
