@@ -14,7 +14,6 @@ against them, and check energy conservation, topologies (locked, cut, free, join
 the stability refusal and compiled == interpreter.
 """
 import itertools
-import json
 import math
 import pathlib
 
@@ -40,7 +39,7 @@ def omega_fixed(T, m, shape):
 
 
 def mode_shapes_fixed(shape):
-    """[(ω index key, function index -> φ)] helpers: the separable sine shapes of a fixed lattice."""
+    """φ(ks, index): the separable sine shape of mode ks of a fixed lattice at a cell."""
     def phi(ks, index):
         return np.prod([math.sin(k * math.pi * (i + 1) / (n + 1)) for k, i, n in zip(ks, index, shape)])
     return phi
