@@ -166,31 +166,54 @@ def string_step(pos, vel, frc, inv_mass, tension, damping, dt, fixed):
 
 
 @helper
+def _sheet_cell(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed):
+    """One cell of a sheet with every boundary test (the edge rows and columns)."""
+    i = r * cols + c
+    xi = pos[i]
+    f = 0.0
+    if r > 0:
+        f += pos[i - cols] - xi
+    elif fixed:
+        f -= xi
+    if r < rows - 1:
+        f += pos[i + cols] - xi
+    elif fixed:
+        f -= xi
+    if c > 0:
+        f += pos[i - 1] - xi
+    elif fixed:
+        f -= xi
+    if c < cols - 1:
+        f += pos[i + 1] - xi
+    elif fixed:
+        f -= xi
+    vel[i] += w * (tension * f + frc[i] - damping * vel[i])
+    frc[i] = 0.0
+
+
+@helper
 def sheet_step(pos, vel, frc, rows, cols, inv_mass, tension, damping, dt, fixed):
-    """The 2-D stencil of a uniform rows × cols lattice, row-major."""
+    """The 2-D stencil of a uniform rows × cols lattice, row-major.
+
+    The edges are peeled off the interior, whose loop has no tests (so LLVM vectorises it); the
+    neighbours are summed in the same order everywhere (up, down, left, right), as before.
+    """
     w = dt * inv_mass
     for r in range(rows):
-        for c in range(cols):
-            i = r * cols + c
-            xi = pos[i]
-            f = 0.0
-            if r > 0:
-                f += pos[i - cols] - xi
-            elif fixed:
-                f -= xi
-            if r < rows - 1:
-                f += pos[i + cols] - xi
-            elif fixed:
-                f -= xi
-            if c > 0:
-                f += pos[i - 1] - xi
-            elif fixed:
-                f -= xi
-            if c < cols - 1:
-                f += pos[i + 1] - xi
-            elif fixed:
-                f -= xi
-            vel[i] += w * (tension * f + frc[i] - damping * vel[i])
-            frc[i] = 0.0
+        if r == 0 or r == rows - 1:
+            for c in range(cols):
+                _sheet_cell(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed)
+            continue
+        _sheet_cell(pos, vel, frc, r, 0, rows, cols, w, tension, damping, fixed)
+        # row views indexed from 1: no index can be negative, so no wraparound test per access
+        up, mid, down = pos[(r - 1) * cols:r * cols], pos[r * cols:(r + 1) * cols], pos[(r + 1) * cols:(r + 2) * cols]
+        v, fr = vel[r * cols:(r + 1) * cols], frc[r * cols:(r + 1) * cols]
+        for c in range(1, cols - 1):
+            xi = mid[c]
+            f = (up[c] - xi) + (down[c] - xi) + (mid[c - 1] - xi) + (mid[c + 1] - xi)
+            v[c] += w * (tension * f + fr[c] - damping * v[c])
+            fr[c] = 0.0
+        if cols > 1:
+            _sheet_cell(pos, vel, frc, r, cols - 1, rows, cols, w, tension, damping, fixed)
     for i in range(rows * cols):
         pos[i] += dt * vel[i]
