@@ -146,13 +146,18 @@ class Network:
         name, index = parse_ref(ref)
         return self.by_name[name].flat(index)
 
-    def stiffness_sums(self, tension_of=None):
-        """Σk per cell (springs and anchors) at the components' current tensions."""
+    def stiffness_parts(self):
+        """Per cell: (Σk of its lattice's springs and anchors, Σk of the joins on it)."""
         t = np.array([c.inst.values["tension"] if c.shape else 0.0 for c in self.components])
         counts = np.diff(self.rowptr.astype(np.int64)) + self.anchor
         joins = np.add.reduceat(np.append(self.jk, 0.0), np.minimum(self.jrow[:-1], len(self.jk)).astype(np.int64))
         joins[np.diff(self.jrow.astype(np.int64)) == 0] = 0.0
-        return t[self.cid] * counts + joins
+        return t[self.cid] * counts, joins
+
+    def stiffness_sums(self):
+        """Σk per cell (springs and anchors) at the components' current tensions."""
+        own, joins = self.stiffness_parts()
+        return own + joins
 
     def masses(self):
         m = np.array([c.inst.values["mass"] for c in self.components])[self.cid]
@@ -304,9 +309,15 @@ def check_stability(blocks, rate, problems):
         m, k, g = mass[worst], ksum[worst], damp[worst]
         # the largest stable value of the component's tension (or the smallest mass), others fixed
         hints = []
-        if comp.shape and inst.values["tension"] > 0 and k > 0:
-            scale = max((STABILITY_BOUND - dt * g / m) * m / (dt * dt * k), 0.0)
-            hints.append(f"largest stable tension {inst.values['tension'] * scale:.4g} N/m")
+        own, joins = net.stiffness_parts()
+        k_own, k_join = own[worst], joins[worst]
+        budget = (STABILITY_BOUND - dt * g / m) * m / (dt * dt)   # the Σk the cell can take
+        if comp.shape and inst.values["tension"] > 0 and k_own > 0:
+            if budget > k_join:
+                # only the lattice's own springs scale with its tension; the joins do not
+                hints.append(f"largest stable tension {inst.values['tension'] * (budget - k_join) / k_own:.4g} N/m")
+            else:
+                hints.append("its joins alone are too stiff for it: lower their tension")
         mass_needed = (dt * dt * k + dt * g) / STABILITY_BOUND
         hints.append(f"smallest stable mass {mass_needed * inst.values['mass'] / m:.4g} kg")
         problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): unstable at {rate:g} Hz: cell "
