@@ -50,7 +50,7 @@ import numpy as np
 
 from ..graph.engine import Driver
 from ..graph.errors import PatchError
-from ..graph.profiles import find_profile, load_profile, profile_of, shipped_profiles
+from ..graph.profiles import find_profile, load_profile, shipped_profiles
 
 RING = 512                  # reports held between the reader thread and the kernel
 MAX_READ_MS = 20            # the longest a read waits, so the thread always notices a stop
@@ -403,6 +403,8 @@ class HidDriver(Driver):
         self.out_buf = profile.output.buffer() if profile.output else None
         self.cond = threading.Condition()
         self.reader = self.writer = None
+        self.posted = threading.Event()
+        self.pending = None
         self.running = False
         self.lost = None
         self.rate = 44100.0

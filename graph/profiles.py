@@ -47,8 +47,8 @@ import re
 from dataclasses import dataclass
 from importlib.util import find_spec
 
-from .errors import Collector, PatchError
-from .source import LDict, LList, load_yaml
+from .errors import PatchError
+from .source import LDict, load_yaml
 
 SUFFIXES = (".yaml", ".yml")
 IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")

@@ -233,7 +233,7 @@ def test_bit_fields_across_bytes_and_big_endian_signed(tmp_path):
                         "pos: {byte: 0, size: 32, signed: true, endian: big, scale: 1.0e-6, unit: m}")
     text = text.replace("b0: {byte: 5, bit: 0}", "b0: {byte: 6, bit: 0}").replace("b1: {byte: 5, bit: 1}", "b1: {byte: 7, bit: 7}")
     p = load_profile(str(write_profile(tmp_path, text)))
-    # aux: 12 bits from byte 4 bit 4: low nibble of 0xAB... → bits = 0xF_A (byte 5 = 0xFF, byte 4 high nibble 0xA) = 0xFFA = −6
+    # aux: 12 bits from byte 4, bit 4: bytes 4-5 little-endian 0xFFA3 >> 4 = 0xFFA, 12-bit signed = −6
     report = b"\x01" + struct.pack(">i", -2) + bytes([0xA3, 0xFF, 0x01, 0x80])
     (r,), _ = decode(p, report)
     assert r["pos"] == pytest.approx(-2e-6)
@@ -398,7 +398,7 @@ def test_gamepad_axes_are_ports_and_drive_a_patch(write_patch):
     patch = load(write_patch(text))
     driver = HidDriver("pad", patch.devices["pad"], transport=ReplayTransport(
         [(0.0, bytes([128, 128, 128, 255, 8, 0, 0, 0])), (0.01, bytes([128, 128, 128, 0, 0x18, 0, 0, 0]))]))
-    assert (driver.transport.events and driver.profile.name) == "gamepad"
+    assert driver.profile.name == "gamepad" and driver.transport.opened == 1
     r = hapticgraph.render(patch, 0.02, probes=["tone.out", "stick.button1", "stick.hat"], drivers={"pad": driver})
     np.testing.assert_allclose(r.probes["tone.out"][[0, 9, 10, 19]], [1.0, 1.0, -1.0, -1.0])
     np.testing.assert_array_equal(r.probes["stick.button1"][[9, 10]], [0, 1])
