@@ -1,0 +1,242 @@
+"""Real-time benchmarks of `hapticgraph play` (results and method: benchmarks/realtime.md).
+
+1. Headroom under a JACK dummy server (jackd2, `-d dummy`, real-time priority) at 64-frame
+   blocks, 44.1 kHz: mass-spring sheets of increasing size played through the real audio path
+   (sounddevice → PortAudio's JACK host API → jackd), the callback load (time in the callback /
+   the 1.45 ms period: mean, 99th percentile, maximum), xruns (PortAudio status flags) and
+   callbacks over their period; the largest instrument that keeps up.
+2. A per-sample servo loop (blocks of ONE sample, as seed 000's 19 kHz haptic loop): the Fig. 7
+   bowed string with its haptic device fed from a preallocated buffer (a recorded take, as a HID
+   reader thread would hand it over), run free (the maximum rate) and paced by a deadline clock at
+   20 kHz: the sustained rate, the jitter of the loop's start times and the missed deadlines.
+
+    python benchmarks/realtime.py            # about 1.5 minutes
+    python benchmarks/realtime.py --quick    # fewer sizes, shorter runs
+
+Needs jackd (Debian jackd2) and PortAudio (libportaudio2) for part 1; part 2 needs neither.
+"""
+import argparse
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+SHEET = """
+hapticgraph: 1
+name: sheet {a}x{b}
+rate: 44100
+blocks:
+  plate: {{type: lattice, shape: [{a}, {b}], mass: 0.001, tension: 200000.0, damping: 0.05}}
+  hit: {{type: pluck, time: 0.01, force: 0.5, duration: 0.0005}}
+  mic: {{type: mic, gain: 5.0, pan: 0.2}}
+  out: {{type: audio_out}}
+connect:
+  - hit.out -> plate[{ha}, {hb}].force
+  - plate[{ma}, {mb}].velocity -> mic.in
+  - mic.left -> out.left
+  - mic.right -> out.right
+"""
+
+
+def sheet(folder, a, b):
+    path = os.path.join(folder, f"sheet_{a}x{b}.yaml")
+    with open(path, "w") as f:
+        f.write(SHEET.format(a=a, b=b, ha=a // 3, hb=b // 3, ma=(2 * a) // 3, mb=b // 2))
+    return path
+
+
+def start_jack(folder, period=64, rate=44100):
+    name = f"hapticgraph-bench-{os.getpid()}"
+    log = open(os.path.join(folder, "jackd.log"), "w+")
+    proc = subprocess.Popen(["jackd", "-n", name, "-R", "-d", "dummy", "-r", str(rate), "-p", str(period)],
+                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    os.environ["JACK_DEFAULT_SERVER"] = name
+    os.environ["JACK_NO_START_SERVER"] = "1"
+    for _ in range(75):
+        out = subprocess.run(["jack_wait", "-c", "-s", name], capture_output=True, text=True).stdout
+        if "running" in out and "not" not in out:
+            return proc, log
+        time.sleep(0.2)
+    raise RuntimeError("jackd did not start")
+
+
+def stop_jack(proc):
+    if proc.poll() is None:
+        os.kill(proc.pid, signal.SIGTERM)
+        proc.wait(10)
+
+
+def headroom(sizes, seconds):
+    from hapticgraph import load
+    from hapticgraph.devices import audio, open_drivers
+    if shutil.which("jackd") is None:
+        print("part 1 skipped: jackd (Debian jackd2) is not installed")
+        return []
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        os.environ.setdefault("HAPTICGRAPH_CACHE", os.path.join(folder, "cache"))
+        jack, log = start_jack(folder)
+        try:
+            audio.rescan()                       # PortAudio sees the server started after import
+            device = audio.find_device("system", "output", 2)
+            for a, b in sizes:
+                patch = load(sheet(folder, a, b))
+                session = audio.play_session(patch, open_drivers(patch), 64)
+                # the kernel alone, offline: time per 64-sample block
+                for _ in range(50):
+                    session.process(64)
+                n = max(20, int(0.5 * 44100 / 64))
+                t = time.perf_counter()
+                for _ in range(n):
+                    session.process(64)
+                offline = (time.perf_counter() - t) / n
+                session = audio.play_session(patch, open_drivers(patch), 64)
+                player = audio.Player(session, device=device, blocksize=64, latency="low", seconds=seconds)
+                rep = player.run()
+                keeps = rep.xruns == 0 and rep.load_p99 < 1.0 and rep.late <= 0.001 * rep.callbacks \
+                    and rep.problem is None
+                rows.append({"cells": a * b, "shape": f"{a}×{b}", "offline_ms": 1e3 * offline,
+                             "offline_load": offline / (64 / 44100), "mean": rep.load_mean, "p99": rep.load_p99,
+                             "max": rep.load_max, "xruns": rep.xruns, "late": rep.late,
+                             "callbacks": rep.callbacks, "wall": rep.wall, "played": rep.seconds,
+                             "keeps": keeps, "problem": rep.problem})
+                r = rows[-1]
+                print(f"  {r['shape']:>9} {r['cells']:>7} cells: offline {r['offline_ms']:.3f} ms/block "
+                      f"({100 * r['offline_load']:.1f}%); live load mean {100 * r['mean']:.1f}% p99 "
+                      f"{100 * r['p99']:.1f}% max {100 * r['max']:.1f}%, xruns {r['xruns']}, late {r['late']}/"
+                      f"{r['callbacks']}, {r['played']:.2f} s in {r['wall']:.2f} s -> "
+                      f"{'keeps up' if keeps else 'does NOT keep up'}", flush=True)
+                if not keeps and r["offline_load"] > 1.5:
+                    break
+        finally:
+            try:
+                import sounddevice as sd
+                sd._terminate()                  # PortAudio lets go of the server before it stops
+            except Exception:  # noqa: BLE001
+                pass
+            stop_jack(jack)
+            log.close()
+    return rows
+
+
+def servo(seconds, rate_goal=20000.0):
+    """The Fig. 7 patch stepped one sample per call, its device fed from a recorded take."""
+    from hapticgraph import load
+    from hapticgraph.devices import open_drivers
+    from hapticgraph.devices.record import Recorder, replay_drivers
+    from hapticgraph.graph.engine import Session
+    path = os.path.join(ROOT, "patches", "fig7_bowed_string.yaml")
+    patch = load(path)
+    out = {}
+    with tempfile.TemporaryDirectory() as folder:
+        # a take of the simulated hand (what a HID reader thread would have buffered)
+        s = Session(patch, drivers=open_drivers(patch), blocksize=4096)
+        rec = Recorder(os.path.join(folder, "hand"), s, 2, 4096, ring_seconds=12)
+        total = int(patch.rate * (2 * seconds + 2))
+        for t0 in range(0, total, 4096):
+            n = min(4096, total - t0)
+            r = s.process(n)
+            rec.push_inputs(s.ext[:n], r[:, s.prog.device_records[0][1]:])
+            rec.push_audio(r[:, :2].astype(np.float32))
+        rec.close()
+        _, drivers = replay_drivers(patch, os.path.join(folder, "hand.hgrec"))
+
+        def session():
+            ss = Session(patch, drivers=drivers, blocksize=64, runaway=1e3)
+            for d in drivers.values():
+                d.sent = _Sink()
+            for _ in range(2000):
+                ss.process(1)
+            return ss
+
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(50))
+            out["sched"] = "SCHED_FIFO 50"
+        except (AttributeError, PermissionError, OSError):
+            out["sched"] = "default (SCHED_OTHER)"
+        # free-running: the maximum rate
+        ss = session()
+        n = int(seconds * 40000)
+        t = time.perf_counter()
+        for _ in range(n):
+            ss.process(1)
+        out["free_rate"] = n / (time.perf_counter() - t)
+        # paced: a deadline every 1/rate_goal s, busy-waiting in between
+        ss = session()
+        period = 1.0 / rate_goal
+        n = int(seconds * rate_goal)
+        starts = np.zeros(n)
+        clock = time.perf_counter
+        t0 = clock() + 0.01
+        for k in range(n):
+            due = t0 + k * period
+            while clock() < due:
+                pass
+            starts[k] = clock()
+            ss.process(1)
+        end = clock()
+        late = starts - (t0 + np.arange(n) * period)
+        intervals = np.diff(starts)
+        out.update({"goal": rate_goal, "paced_rate": n / (end - t0), "n": n,
+                    "late_mean_us": 1e6 * late.mean(), "late_p99_us": 1e6 * np.percentile(late, 99),
+                    "late_max_us": 1e6 * late.max(), "jitter_std_us": 1e6 * intervals.std(),
+                    "interval_p99_us": 1e6 * np.percentile(intervals, 99),
+                    "interval_max_us": 1e6 * intervals.max(),
+                    "missed": int(np.sum(late > period))})
+        try:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        except (AttributeError, PermissionError, OSError):
+            pass
+    return out
+
+
+class _Sink(list):
+    """Forces sent to the replayed device are dropped (a device would take them)."""
+
+    def append(self, x):
+        pass
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--seconds", type=float, default=None, help="length of each live run")
+    args = ap.parse_args(argv)
+    sizes = [(10, 10), (32, 32), (71, 71), (100, 100), (141, 141), (173, 173), (224, 224), (316, 316)]
+    if args.quick:
+        sizes = [(10, 10), (100, 100), (316, 316)]
+    seconds = args.seconds or (2.0 if args.quick else 4.0)
+    print(f"part 1: sheets under jackd -d dummy, 64-frame blocks at 44.1 kHz, {seconds:g} s each")
+    rows = headroom(sizes, seconds)
+    if rows:
+        print("\n| cells | sheet | kernel alone (ms / 64 frames) | live load mean | p99 | max | xruns | "
+              "callbacks over period | keeps up |")
+        print("|---:|---|---:|---:|---:|---:|---:|---:|---|")
+        for r in rows:
+            print(f"| {r['cells']:,} | {r['shape']} | {r['offline_ms']:.3f} ({100 * r['offline_load']:.0f}%) | "
+                  f"{100 * r['mean']:.1f}% | {100 * r['p99']:.1f}% | {100 * r['max']:.1f}% | {r['xruns']} | "
+                  f"{r['late']} / {r['callbacks']} | {'yes' if r['keeps'] else 'no'} |")
+        ok = [r for r in rows if r["keeps"]]
+        if ok:
+            print(f"\nlargest that keeps up: {ok[-1]['cells']:,} cells ({ok[-1]['shape']})")
+    print("\npart 2: per-sample servo loop (fig7_bowed_string.yaml, blocks of 1 sample, device from a buffer)")
+    s = servo(1.0 if args.quick else 5.0)
+    print(f"  scheduling: {s['sched']}")
+    print(f"  free-running: {s['free_rate']:,.0f} samples/s")
+    print(f"  paced at {s['goal']:,.0f} Hz: sustained {s['paced_rate']:,.0f} Hz over {s['n']:,} samples; "
+          f"start lateness mean {s['late_mean_us']:.1f} µs, p99 {s['late_p99_us']:.1f} µs, max "
+          f"{s['late_max_us']:.1f} µs; interval std {s['jitter_std_us']:.2f} µs, p99 {s['interval_p99_us']:.1f} µs, "
+          f"max {s['interval_max_us']:.1f} µs; {s['missed']} deadline(s) missed by more than a period")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
