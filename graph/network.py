@@ -45,7 +45,8 @@ class Component:
             alive = np.ones(full, dtype=bool)
             for idx in v["cut"]:
                 alive[np.ravel_multi_index(tuple(idx), self.shape)] = False
-            self.compact = np.full(full, -1, dtype=np.int64)
+            # int32 where it fits: this map lives as long as the network (4 bytes a cell)
+            self.compact = np.full(full, -1, dtype=np.int32 if full < 2 ** 31 else np.int64)
             self.compact[alive] = np.arange(int(alive.sum()))
             self.alive = alive
             self.count = int(alive.sum())
@@ -96,7 +97,8 @@ class Network:
         self.damp = np.zeros(n)      # per-cell damping added to the component's (overrides)
         self.anchor = np.zeros(n)
         self.cid = np.zeros(n, dtype=IDX)
-        rows, cols = [], []
+        counts = np.zeros(n, dtype=np.int64)     # lattice springs per cell
+        cols = []                                 # (component, its cells' neighbours, local indices)
         for comp in self.components:
             sl = slice(comp.offset, comp.offset + comp.count)
             self.cid[sl] = comp.index
@@ -105,10 +107,8 @@ class Network:
                 if v["locked"]:
                     self.inv_m[sl] = 0.0
                 continue
-            r, c, anchors = _lattice_springs(comp, v["boundary"] == "fixed")
-            rows.append(r + comp.offset)
-            cols.append(c + comp.offset)
-            self.anchor[sl] = anchors
+            counts[sl], c, self.anchor[sl] = _lattice_neighbours(comp, v["boundary"] == "fixed")
+            cols.append((comp, c))
             for idx in v["lock"]:
                 k = comp.flat(idx)
                 if k is not None:
@@ -123,9 +123,18 @@ class Network:
                     self.damp[k] = o["damping"] - v["damping"]
                 if o.get("locked"):
                     self.inv_m[k] = 0.0
-        r = np.concatenate(rows) if rows else np.zeros(0, dtype=np.int64)
-        c = np.concatenate(cols) if cols else np.zeros(0, dtype=np.int64)
-        self.rowptr, self.col, self.kr = _csr(n, r, c, np.ones(len(r)))
+        # CSR straight from the per-lattice tables: components are contiguous and each table is
+        # in row order already, so there is nothing to sort (and no list of pairs to hold)
+        idx = IDX if n < 2 ** 32 else np.uint64
+        self.rowptr = np.zeros(n + 1, dtype=idx)
+        self.rowptr[1:] = np.cumsum(counts)
+        self.col = np.empty(int(self.rowptr[-1]), dtype=idx)
+        for comp, c in cols:
+            start = int(self.rowptr[comp.offset])
+            part = self.col[start:start + len(c)]
+            part[:] = c
+            part += comp.offset
+        self.kr = np.ones(len(self.col))
         jr, jc, jk = [], [], []
         for s in self.springs:
             a, b = self.cell_of(s.values["a"]), self.cell_of(s.values["b"])
@@ -184,27 +193,30 @@ class Network:
         return self.components[int(self.cid[flat])]
 
 
-def _lattice_springs(comp, fixed):
-    """Neighbour springs (rows, cols, in local compact indices) and anchor counts of a lattice."""
+def _lattice_neighbours(comp, fixed):
+    """A lattice's springs as CSR rows in local compact indices: per alive cell, the number of
+    its neighbours and their indices (axis by axis, the lower one first), and its anchor count
+    (edges of a fixed lattice). Built from one (cells × 2·dims) table of neighbours, cut ones
+    marked −1, so no sorting and no list of pairs: its peak is a few tens of bytes a cell."""
     shape, alive, compact = comp.shape, comp.alive, comp.compact
     full = len(alive)
-    flat = np.arange(full)
-    coords = np.unravel_index(flat, shape)
     strides = [int(np.prod(shape[i + 1:])) for i in range(len(shape))]
-    rows, cols = [], []
+    table = np.full((full, 2 * len(shape)), -1, dtype=compact.dtype)
     anchors = np.zeros(full)
+    flat = np.arange(full)
+    k = 0
     for axis, n in enumerate(shape):
+        coord = (flat // strides[axis]) % n
         for step in (-1, 1):
-            nb = coords[axis] + step
-            inside = (nb >= 0) & (nb < n)
-            target = flat + step * strides[axis]
+            inside = coord > 0 if step < 0 else coord < n - 1
             ok = alive & inside
-            ok[ok] &= alive[target[ok]]
-            rows.append(compact[flat[ok]])
-            cols.append(compact[target[ok]])
+            table[ok, k] = compact[flat[ok] + step * strides[axis]]
             if fixed:
-                anchors += (alive & ~inside)
-    return np.concatenate(rows), np.concatenate(cols), anchors[alive]
+                anchors += alive & ~inside
+            k += 1
+    table = table[alive]
+    linked = table >= 0
+    return linked.sum(axis=1), table[linked], anchors[alive]
 
 
 def _csr(n, rows, cols, vals):
