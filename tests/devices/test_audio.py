@@ -142,3 +142,47 @@ def test_live_audio_input(tmp_path, write_patch):
     # without a sound card input, `run` refuses the live block with a clear message
     r = hapticgraph(["run", path, "--out", tmp_path / "x.wav", "--quiet"], env)
     assert r.returncode == 2 and "live input needs `play`" in r.stderr
+
+
+SHEET = """
+hapticgraph: 1
+rate: 44100
+blocks:
+  plate: {type: lattice, shape: [6, 5], mass: 0.001, tension: 100000.0, damping: 0.01}
+  hit: {type: pluck, time: 0.0, force: 0.5, duration: 0.0005}
+  loop: {type: delay, length: 37}
+  mic: {type: mic, gain: GAIN}
+  out: {type: audio_out, channels: 1}
+connect:
+  - hit.out -> plate[2, 2].force
+  - plate[4, 3].velocity -> loop.in
+  - loop.out -> mic.in
+  - mic.left -> out.ch0
+"""
+
+
+def test_reload_keeps_state_of_unchanged_blocks(write_patch):
+    """carry_state (what --watch does at the swap): cells, delay lines and states of unchanged
+    blocks continue exactly; the changed block starts afresh."""
+    from hapticgraph import load
+    from hapticgraph.devices import open_drivers
+    from hapticgraph.devices.audio import carry_state, play_session
+    a = load(write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml"))
+    b = load(write_patch(SHEET.replace("GAIN", "0.5"), name="b.yaml"))
+    full = play_session(a, open_drivers(a), 64)
+    ref = np.concatenate([full.process(64)[:, 0].copy() for _ in range(40)])
+    old = play_session(a, open_drivers(a), 64)
+    first = np.concatenate([old.process(64)[:, 0].copy() for _ in range(20)])
+    new = play_session(b, open_drivers(b), 64)
+    pairs, kept = carry_state(old.prog, new.prog)
+    assert sorted(kept) == ["hit", "loop", "out", "plate"]
+    for dst, src in pairs:
+        np.copyto(dst, src)
+    new.t = old.t
+    second = np.concatenate([new.process(64)[:, 0].copy() for _ in range(20)])
+    assert np.array_equal(first, ref[:1280])
+    assert np.array_equal(second, ref[1280:] * 0.5) and np.any(second != 0)
+    # a changed lattice starts from rest; an unchanged delay line still holds its samples
+    c = load(write_patch(SHEET.replace("GAIN", "1.0").replace("damping: 0.01", "damping: 0.02"), name="c.yaml"))
+    _, kept = carry_state(old.prog, play_session(c, open_drivers(c), 64).prog)
+    assert "plate" not in kept and "loop" in kept
