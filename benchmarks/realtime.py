@@ -101,17 +101,19 @@ def headroom(sizes, seconds):
                 session = audio.play_session(patch, open_drivers(patch), 64)
                 player = audio.Player(session, device=device, blocksize=64, latency="low", seconds=seconds)
                 rep = player.run()
-                keeps = rep.xruns == 0 and rep.load_p99 < 1.0 and rep.late <= 0.001 * rep.callbacks \
+                # keeps up: no callback over its period, p99 under it, no xrun once running (an xrun
+                # in the first 0.1 s, while JACK connects the ports, is counted but not held against it)
+                keeps = rep.late == 0 and rep.load_p99 < 1.0 and rep.xruns == rep.xruns_startup \
                     and rep.problem is None
                 rows.append({"cells": a * b, "shape": f"{a}×{b}", "offline_ms": 1e3 * offline,
                              "offline_load": offline / (64 / 44100), "mean": rep.load_mean, "p99": rep.load_p99,
-                             "max": rep.load_max, "xruns": rep.xruns, "late": rep.late,
+                             "max": rep.load_max, "xruns": rep.xruns, "startup": rep.xruns_startup, "late": rep.late,
                              "callbacks": rep.callbacks, "wall": rep.wall, "played": rep.seconds,
                              "keeps": keeps, "problem": rep.problem})
                 r = rows[-1]
                 print(f"  {r['shape']:>9} {r['cells']:>7} cells: offline {r['offline_ms']:.3f} ms/block "
                       f"({100 * r['offline_load']:.1f}%); live load mean {100 * r['mean']:.1f}% p99 "
-                      f"{100 * r['p99']:.1f}% max {100 * r['max']:.1f}%, xruns {r['xruns']}, late {r['late']}/"
+                      f"{100 * r['p99']:.1f}% max {100 * r['max']:.1f}%, xruns {r['xruns']} ({r['startup']} at start), late {r['late']}/"
                       f"{r['callbacks']}, {r['played']:.2f} s in {r['wall']:.2f} s -> "
                       f"{'keeps up' if keeps else 'does NOT keep up'}", flush=True)
                 if not keeps and r["offline_load"] > 1.5:
@@ -225,12 +227,12 @@ def main(argv=None):
     print(f"part 1: sheets under jackd -d dummy, 64-frame blocks at 44.1 kHz, {seconds:g} s each")
     rows = headroom(sizes, seconds)
     if rows:
-        print("\n| cells | sheet | kernel alone (ms / 64 frames) | live load mean | p99 | max | xruns | "
+        print("\n| cells | sheet | kernel alone (ms / 64 frames) | live load mean | p99 | max | xruns (at start) | "
               "callbacks over period | keeps up |")
         print("|---:|---|---:|---:|---:|---:|---:|---:|---|")
         for r in rows:
             print(f"| {r['cells']:,} | {r['shape']} | {r['offline_ms']:.3f} ({100 * r['offline_load']:.0f}%) | "
-                  f"{100 * r['mean']:.1f}% | {100 * r['p99']:.1f}% | {100 * r['max']:.1f}% | {r['xruns']} | "
+                  f"{100 * r['mean']:.1f}% | {100 * r['p99']:.1f}% | {100 * r['max']:.1f}% | {r['xruns']} ({r['startup']}) | "
                   f"{r['late']} / {r['callbacks']} | {'yes' if r['keeps'] else 'no'} |")
         ok = [r for r in rows if r["keeps"]]
         if ok:

@@ -163,13 +163,18 @@ class Report:
         self.swaps, self.reload_errors = p.swaps, p.reload_errors
         self.latency, self.blocksize, self.device = p.latency, p.blocksize, p.device_name
         self.wall = p.wall
+        self.xrun_at = [int(i) for i in p.xrun_at[:p.nxrun]]
+        startup = max(1, int(0.1 * p.rate / max(1, p.blocksize)))     # the first 0.1 s
+        self.xruns_startup = sum(1 for i in self.xrun_at if i < startup)
 
     def lines(self, name):
         flags = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in self.flags.items())
         out = [f"{name}: played {self.seconds:.3f} s (wall {self.wall:.3f} s) at {self.rate:g} Hz on {self.device} in blocks of "
                f"{self.blocksize} ({1e3 * self.blocksize / self.rate:.2f} ms; output latency "
                f"{1e3 * self.latency:.1f} ms)",
-               f"  callbacks {self.callbacks}; xruns {self.xruns} ({flags}); callback load mean "
+               f"  callbacks {self.callbacks}; xruns {self.xruns} ({flags}"
+               f"{'; first at callback ' + ', '.join(map(str, self.xrun_at[:5])) if self.xrun_at else ''}); "
+               f"callback load mean "
                f"{100 * self.load_mean:.1f}%, p99 {100 * self.load_p99:.1f}%, max {100 * self.load_max:.1f}%; "
                f"{self.late} callback(s) over their period"]
         if self.swaps or self.reload_errors:
@@ -209,6 +214,8 @@ class Player:
         self.busy = self.period_total = self.load_max = 0.0
         self.loads = np.zeros(1 << 16)
         self.flag_counts = dict.fromkeys(FLAGS, 0)
+        self.xrun_at = np.full(64, -1, dtype=np.int64)    # callback index of the first xruns
+        self.nxrun = 0
         self.swaps = self.reload_errors = 0
         self.wall = 0.0
         sd = self.sd
@@ -250,6 +257,10 @@ class Player:
                 for name in FLAGS:
                     if getattr(status, name):
                         self.flag_counts[name] += 1
+                if self.nxrun < len(self.xrun_at) and (status.output_underflow or status.output_overflow
+                                                       or status.input_underflow or status.input_overflow):
+                    self.xrun_at[self.nxrun] = self.calls
+                    self.nxrun += 1
             if self.pending is not None:
                 self._swap()
             self._fill(indata, outdata, frames)
