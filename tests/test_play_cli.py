@@ -1,7 +1,6 @@
 """The `play` and `devices` commands: bad input is a clear error with exit status 2 and nothing
 played; `devices` lists the sound cards; `--watch` swaps a changed patch in at a block boundary,
 keeping the state of every block that did not change."""
-import shutil
 import subprocess
 import sys
 import time
