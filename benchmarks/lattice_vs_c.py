@@ -617,7 +617,12 @@ def main(argv=None):
         return 0
     if args.quick:
         args.samples, args.reps = min(args.samples, 1024), min(args.reps, 3)
-    os.environ.setdefault("HAPTICGRAPH_CACHE", tempfile.mkdtemp(prefix="hg-lattice-kernels-"))
+    with tempfile.TemporaryDirectory(prefix="hg-lattice-kernels-") as kernels:
+        os.environ.setdefault("HAPTICGRAPH_CACHE", kernels)    # the user's cache stays untouched
+        return measure(args)
+
+
+def measure(args):
     print(f"# lattice benchmark, {datetime.date.today()}: {machine()}")
     status = 0
     results = {}
