@@ -276,8 +276,11 @@ def check_springs(blocks, problems, declared=()):
             target = blocks.get(name)
             if target is None and name in declared:
                 continue   # that block has its own problem, reported already
-            if target is None or target.cls.type_name not in ("lattice", "cell"):
+            if target is None:
                 problems.add(line, f"{where}: no lattice or cell block named {name!r}")
+                continue
+            if target.cls.type_name not in ("lattice", "cell"):
+                problems.add(line, f"{where}: {name!r} is a {target.cls.type_name}, not a lattice or a cell")
                 continue
             if target.cls.type_name == "cell":
                 if index is not None:

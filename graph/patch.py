@@ -223,6 +223,9 @@ def _describe(err, path, doc, registry):
         what = f"block {path[1]!r}" + (f" ({kind})" if kind else "")
         if len(path) >= 3:
             what += f": parameter {path[2]!r}"
+            rest = "".join(f"[{s}]" if isinstance(s, int) else f".{s}" for s in path[3:])
+            if rest:
+                what += f" {rest.lstrip('.')}"
             cls = registry.types.get(kind)
             unit = cls.params[path[2]].unit if cls and path[2] in cls.params else ""
     elif path and path[0] == "connect":
