@@ -249,6 +249,9 @@ def _cmd_play(args):
     if args.replay and args.watch:
         raise UsageError("--replay and --watch do not go together")
     patch = load(args.patch, overrides=args.overrides)
+    unknown = sorted(set(choices) - set(patch.devices))
+    if unknown:
+        raise UsageError(f"--device: the patch declares no device named {', '.join(unknown)}")
     try:
         audio.sounddevice()
     except audio.AudioError as exc:
