@@ -8,6 +8,8 @@ anchor follows the scripted keyframes, and is pushed by the force the patch send
 integrated with semi-implicit (symplectic) Euler inside the kernel, every sample, so the haptic
 loop is closed in simulation with the same driver interface a real device uses.
 """
+import collections
+
 import numpy as np
 
 from ..blocks import External, Param, State
@@ -66,7 +68,7 @@ class SimulatedDevice(Driver):
                        "hand_damping": float(spec.get("hand_damping", 4.0)),
                        "max_force": self.max_force, "x0": float(self.xs[0])}
         self.rate = 44100.0
-        self.sent = []
+        self.sent = collections.deque()
 
     def _track(self, script, key):
         keys = [(float(k["t"]), float(k[key])) for k in script if key in k]
@@ -80,7 +82,9 @@ class SimulatedDevice(Driver):
 
     def start(self, rate):
         self.rate = float(rate)
-        self.sent = []
+        self.sent = collections.deque()
+        self._kept = 0
+        self._cache = None
 
     def hand(self, t):
         """Hand anchor position and velocity at times t (s): linear between keyframes."""
@@ -96,17 +100,36 @@ class SimulatedDevice(Driver):
         inside = (t >= times[0]) & (t < times[-1])
         return x, np.where(inside, slope, 0.0)
 
-    def fill(self, t0, ext):
-        t = (t0 + np.arange(ext.shape[0])) / self.rate
-        ext[:, 0], ext[:, 1] = self.hand(t)
+    WINDOW = 4096   # samples of script computed at once, so small blocks cost a copy
+
+    def _compute(self, t0, n):
+        t = (t0 + np.arange(n)) / self.rate
+        out = np.empty((n, len(self.columns)))
+        out[:, 0], out[:, 1] = self.hand(t)
         tt = np.mod(t, self.times[-1]) if not self.hold and self.times[-1] > 0 else t
         for k, track in enumerate(self.axis_tracks):
-            ext[:, 2 + k] = np.interp(tt, self.times, track)
+            out[:, 2 + k] = np.interp(tt, self.times, track)
+        return out
+
+    def fill(self, t0, ext):
+        n = ext.shape[0]
+        if n >= self.WINDOW:
+            ext[:] = self._compute(t0, n)
+            return
+        cache = getattr(self, "_cache", None)
+        if cache is None or not (self._cache_t0 <= t0 and t0 + n <= self._cache_t0 + len(cache)):
+            self._cache, self._cache_t0 = self._compute(t0, self.WINDOW), t0
+        ext[:] = self._cache[t0 - self._cache_t0: t0 - self._cache_t0 + n]
+
+    KEEP = 1 << 22   # samples of sent force kept for inspection (about 95 s at 44.1 kHz)
 
     def send(self, t0, force):
-        # what a real device would receive: clamped, NaN-free
+        # what a real device would receive: clamped, NaN-free; the latest KEEP samples are kept
         sent = np.clip(np.nan_to_num(force, nan=0.0, posinf=0.0, neginf=0.0), -self.max_force, self.max_force)
         self.sent.append(sent)
+        self._kept = getattr(self, "_kept", 0) + len(sent)
+        while self._kept - len(self.sent[0]) >= self.KEEP:
+            self._kept -= len(self.sent.popleft())
 
     def force_sent(self):
         return np.concatenate(self.sent) if self.sent else np.zeros(0)
