@@ -158,18 +158,19 @@ class Session:
         return rec
 
     def _check(self, rec):
-        k = self.checked
-        every = rec if k == rec.shape[1] else rec[:, :k]
-        for col in range(rec.shape[1]):
+        if not np.isfinite(rec).all():           # one pass; find the culprit only when it fails
+            col = int(np.argmin(np.isfinite(rec).all(axis=0)))
             column = rec[:, col]
-            if not np.isfinite(column).all():
-                label = self.prog.records[col][0]
-                i = int(np.argmin(np.isfinite(column)))
-                return f"numerical blow-up: {label} is {column[i]} at {(self.t - rec.shape[0] + i) / self.rate:.4f} s"
-        if every.size and np.abs(every).max() > self.runaway:
-            col = int(np.argmax(np.abs(every).max(axis=0)))
-            return (f"runaway: {self.prog.records[col][0]} reached {np.abs(every[:, col]).max():.3g}, "
-                    f"over the limit {self.runaway:g}")
+            i = int(np.argmin(np.isfinite(column)))
+            return (f"numerical blow-up: {self.prog.records[col][0]} is {column[i]} at "
+                    f"{(self.t - rec.shape[0] + i) / self.rate:.4f} s")
+        k = self.checked
+        if k and np.isfinite(self.runaway):
+            every = rec[:, :k]
+            if np.abs(every).max() > self.runaway:
+                col = int(np.argmax(np.abs(every).max(axis=0)))
+                return (f"runaway: {self.prog.records[col][0]} reached {np.abs(every[:, col]).max():.3g}, "
+                        f"over the limit {self.runaway:g}")
         return None
 
 
