@@ -26,28 +26,22 @@ class _Declaration:
         self.attr = name
 
 
-class In(_Declaration):
+class _Port(_Declaration):
+    def __init__(self, name=None, doc=""):
+        self._name = name
+        self.doc = doc
+
+    @property
+    def name(self):
+        return self._name or self.attr
+
+
+class In(_Port):
     """An input port; `name` is its public name in patches when the attribute name differs."""
 
-    def __init__(self, name=None, doc=""):
-        self._name = name
-        self.doc = doc
 
-    @property
-    def name(self):
-        return self._name or self.attr
-
-
-class Out(_Declaration):
+class Out(_Port):
     """An output port; `name` is its public name in patches when the attribute name differs."""
-
-    def __init__(self, name=None, doc=""):
-        self._name = name
-        self.doc = doc
-
-    @property
-    def name(self):
-        return self._name or self.attr
 
 
 class Param(_Declaration):
