@@ -1,0 +1,36 @@
+"""The bad-input corpus (tests/corpus/): one patch for every kind of error the loader, the graph
+checks, the stability check and the devices can raise. Each exits 2 with `FILE:LINE: message`
+naming the thing at fault, no traceback, within 2 s; `check` reports all problems at once."""
+import re
+import time
+
+import pytest
+import yaml
+
+from conftest import ROOT
+from hapticgraph.cli import main
+
+CORPUS = ROOT / "tests" / "corpus"
+EXPECTED = yaml.safe_load((CORPUS / "expected.yaml").read_text(encoding="utf-8"))
+
+
+def test_every_corpus_file_has_an_expectation_and_back():
+    files = {p.stem for p in CORPUS.glob("*.yaml")} - {"expected"}
+    assert files == set(EXPECTED)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_corpus_patch(name, capsys):
+    path = CORPUS / f"{name}.yaml"
+    start = time.perf_counter()
+    status = main(["check", str(path)])
+    seconds = time.perf_counter() - start
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert lines and all(re.match(rf"^{re.escape(str(path))}:\d+: \S", ln) for ln in lines), err
+    want = EXPECTED[name]
+    at_line = [ln for ln in lines if ln.startswith(f"{path}:{want['line']}: ")]
+    assert any(all(m in ln for m in want["messages"]) for ln in at_line), err
+    assert seconds < 2.0, f"{name} took {seconds:.2f} s"
