@@ -19,7 +19,7 @@ __version__ = "0.1.0"
 
 
 def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devices=None, drivers=None,
-           safety=False, chunk=1 << 14):
+           safety=False, chunk=1 << 14, runaway=1e3):
     """Render a patch (a Patch or a path) offline: `.audio` (frames × channels), `.probes`, `.rate`.
 
     Devices run on their patch's drivers (the simulated device by default); `devices` maps a
@@ -30,7 +30,7 @@ def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devi
     if drivers is None:
         drivers = open_drivers(patch, devices)
     return _render(patch, seconds, probes=probes, engine=engine, progress=progress, drivers=drivers,
-                   safety=safety, chunk=chunk)
+                   safety=safety, chunk=chunk, runaway=runaway)
 
 
 __all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "PatchError", "Problem",
