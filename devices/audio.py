@@ -574,6 +574,7 @@ class Watcher:
         return True
 
 
-def play_session(patch, drivers, blocksize, probes=()):
-    """The Session play runs (safety on: runaway at 1e3, as `run`)."""
-    return Session(patch, probes, drivers, "compiled", blocksize=blocksize, runaway=1e3)
+def play_session(patch, drivers, blocksize, probes=(), editable=False):
+    """The Session play runs (safety on: runaway at 1e3, as `run`); `editable`: cells can be
+    locked, unlocked and cut while playing (lattices on the CSR path)."""
+    return Session(patch, probes, drivers, "compiled", blocksize=blocksize, runaway=1e3, editable=editable)

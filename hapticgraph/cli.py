@@ -56,6 +56,9 @@ def _parser():
     play.add_argument("--record", metavar="TAKE", help="record the device inputs to TAKE.hgrec and the "
                       "audio to TAKE.wav (replay with `hapticgraph run PATCH --replay TAKE.hgrec`)")
     play.add_argument("--replay", metavar="TAKE.hgrec", help="play a recorded take back through the sound card")
+    play.add_argument("--console", action="store_true",
+                      help="read edits from standard input while playing: set BLOCK.PARAM VALUE, "
+                           "lock/unlock/cut NAME[i, j] (lattices then run on their editable CSR path)")
     play.add_argument("--watch", action="store_true", help="reload the patch when its file changes, keeping "
                       "the state of every block that did not change")
     play.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
@@ -267,7 +270,7 @@ def _cmd_play(args):
             drivers = open_drivers(patch, choices, live_input=audio.LiveInput.for_block)
         live = [d for d in drivers.values() if isinstance(d, audio.LiveInput)]
         in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
-        session = audio.play_session(patch, drivers, args.blocksize)
+        session = audio.play_session(patch, drivers, args.blocksize, editable=args.console)
     except (PlanError, DeviceError, audio.AudioError) as exc:
         raise UsageError(str(exc)) from None
     recorder = None
@@ -291,12 +294,16 @@ def _cmd_play(args):
             new_patch = load(args.patch, overrides=args.overrides)
             drivers, opened, unused = audio.reload_drivers(old.prog.patch, new_patch, old.prog.drivers, choices,
                                                            live_input=audio.LiveInput.for_block)
-            return audio.play_session(new_patch, drivers, args.blocksize), opened, unused
+            return audio.play_session(new_patch, drivers, args.blocksize, editable=args.console), opened, unused
         watcher = audio.Watcher(player, args.patch, make_session).start()
 
     def terminate(signum, frame):
         raise KeyboardInterrupt
     previous = signal.signal(signal.SIGTERM, terminate)
+    if args.console:
+        from .console import HELP, Console
+        Console(lambda: player.bound.session).start()
+        print(f"hapticgraph: {HELP}", file=sys.stderr)
     until = f"for {args.seconds:g} s" if args.seconds else "until Ctrl-C"
     print(f"hapticgraph: playing {patch.name!r} {until} on {player.device_name}", file=sys.stderr)
     try:
