@@ -153,3 +153,38 @@ def modal_frequencies(patch, count=20):
         from .patch import load
         patch = load(patch)
     return {m.name: m.frequencies for m in network_modes(patch, count)}
+
+
+def mode_shape(patch, lattice, mode=0):
+    """(frequency in Hz, shape) of a network's mode `mode` (0: the lowest, rigid modes included)
+    as seen on the lattice or cell block `lattice`: an array of its shape, the displacement of each
+    cell (NaN for cut cells, 0 for locked ones), normalised to a peak of 1."""
+    import scipy.linalg as la
+    import scipy.sparse as sp
+    from .network import Network, group
+    for members, springs in group(patch.blocks):
+        if lattice not in [m.name for m in members]:
+            continue
+        net = Network(members, springs, patch.rate, stencils=False)
+        mass = net.masses()
+        idx = np.nonzero(np.isfinite(mass))[0]
+        if not 0 <= mode < len(idx):
+            raise ValueError(f"mode {mode} does not exist: the network of {lattice!r} has {len(idx)} movable cells")
+        k = net.stiffness_matrix()[idx][:, idx]
+        d = sp.diags(1.0 / np.sqrt(mass[idx]))
+        a = (d @ k @ d).toarray()
+        lam, vec = la.eigh(0.5 * (a + a.T), subset_by_index=[mode, mode])
+        x = np.zeros(net.n)
+        x[idx] = vec[:, 0] / np.sqrt(mass[idx])     # back from mass-weighted coordinates
+        peak = np.max(np.abs(x))
+        if peak > 0:
+            x /= x[np.argmax(np.abs(x))]
+        comp = net.by_name[lattice]
+        freq = float(discrete_frequency(np.sqrt(max(lam[0], 0.0)), patch.rate))
+        if not comp.shape:
+            return freq, np.array([x[comp.offset]])
+        full = np.full(len(comp.compact), np.nan)
+        alive = comp.compact >= 0
+        full[alive] = x[comp.offset + comp.compact[alive]]
+        return freq, full.reshape(comp.shape)
+    raise ValueError(f"no lattice or cell block named {lattice!r}")

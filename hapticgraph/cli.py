@@ -95,6 +95,9 @@ def _parser():
                       help="what the spectrogram shows (default: the audio)")
     plot.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
     plot.add_argument("--title", default=None)
+    plot.add_argument("--mode", type=int, metavar="N",
+                      help="draw mode N (0: the lowest) of a lattice instead of rendering (with --lattice)")
+    plot.add_argument("--lattice", metavar="NAME", help="the lattice or cell block whose mode is drawn")
 
     modes = sub.add_parser("modes", help="predicted modal frequencies of each mass-spring network")
     modes.add_argument("patch")
@@ -376,8 +379,21 @@ def _cmd_devices(args):
 
 def _cmd_plot(args):
     from . import render
-    from .plot import plot_render
+    from .plot import plot_mode, plot_render
     patch = load(args.patch, overrides=args.overrides)
+    if args.mode is not None or args.lattice:
+        from .graph.modes import mode_shape
+        lattices = [n for n, b in patch.blocks.items() if b.cls.type_name in ("lattice", "cell")]
+        name = args.lattice or (lattices[0] if lattices else None)
+        if name is None:
+            raise UsageError("--mode: the patch has no lattice or cell block")
+        try:
+            freq, shape = mode_shape(patch, name, args.mode or 0)
+        except ValueError as exc:
+            raise UsageError(f"--mode: {exc}") from None
+        plot_mode(freq, shape, args.out, title=args.title or f"{patch.name}: {name}, mode {args.mode or 0}:")
+        print(f"{args.patch}: {name} mode {args.mode or 0} at {freq:.2f} Hz -> {args.out}")
+        return 0
     spec = None if args.spectrogram == "none" else args.spectrogram
     probes = list(args.probe)
     if spec not in (None, "audio") and spec not in probes:
@@ -455,6 +471,9 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("hapticgraph: interrupted", file=sys.stderr)
         return 1
+    except BrokenPipeError:          # e.g. `hapticgraph modes P | head`: the reader has gone
+        sys.stderr.close()
+        return 0
     except Exception as exc:  # noqa: BLE001 - the CLI never shows a traceback unless asked
         if os.environ.get("HAPTICGRAPH_DEBUG"):
             raise

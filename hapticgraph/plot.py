@@ -42,3 +42,29 @@ def plot_render(result, probes, out, title="", window=None, spectrogram=None, wi
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
+
+
+def plot_mode(freq, shape, out, title="", width=7.0):
+    """Draw one mode shape: a line for a 1-D lattice, a map for 2-D, the middle slice beyond."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    shape = np.asarray(shape, dtype=float)
+    while shape.ndim > 2:                      # the middle slice of every further axis
+        shape = shape[..., shape.shape[-1] // 2]
+    fig, ax = plt.subplots(figsize=(width, 3.2 if shape.ndim < 2 else width * 0.8))
+    if shape.ndim <= 1:
+        ax.plot(np.arange(shape.size), shape.ravel(), "o-", ms=3)
+        ax.axhline(0, color="0.6", lw=0.5)
+        ax.set_xlabel("cell")
+        ax.set_ylabel("displacement (normalised)")
+    else:
+        lim = np.nanmax(np.abs(shape)) or 1.0
+        im = ax.imshow(shape, cmap="RdBu_r", vmin=-lim, vmax=lim, origin="upper")
+        fig.colorbar(im, ax=ax, shrink=0.8, label="displacement (normalised)")
+        ax.set_xlabel("axis 1")
+        ax.set_ylabel("axis 0")
+    ax.set_title(f"{title} {freq:.2f} Hz".strip(), fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
