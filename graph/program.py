@@ -54,6 +54,7 @@ class BlockPlan:
         self.coef_mode = None     # None | "literal" | "slot" | "per_sample"
         self.coefs = {}
         self.coef_slots = {}
+        self.coef_arrays = {}     # array coefficients of a slot-mode block -> ("array", i)
         self.output_args = ()
         self.update_args = ()
         self.derive_args = {}     # for per-sample derive: param -> binding
@@ -106,14 +107,14 @@ class Program:
                 bp.coefs = {k: _freeze(v) for k, v in cls.derive(p, self.fs).items()}
                 if bp.coef_mode == "slot":
                     for k, v in bp.coefs.items():
-                        if isinstance(v, tuple):
-                            bp.coefs[k] = self._array(v)
+                        if isinstance(v, tuple):   # an array coefficient: rewritten in place
+                            bp.coef_arrays[k] = self._array(v)
                         else:
                             bp.coef_slots[k] = len(coef)
                             coef.append(float(v))
         for bp in self.plans:
-            bp.output_args = self._bind(bp, cls_fn(bp.cls, "output"), "output")
-            bp.update_args = self._bind(bp, cls_fn(bp.cls, "update"), "update")
+            bp.output_args = self._bind(bp, bp.cls.output, "output")
+            bp.update_args = self._bind(bp, bp.cls.update, "update")
             if bp.coef_mode == "per_sample":
                 bp.derive_args = {n: self._param_binding(bp, n, per_sample=True) for n in bp.cls.params}
         self.state = np.array(state, dtype=np.float64)
@@ -252,8 +253,8 @@ class Program:
                     kind = "int" if isinstance(value, int) and not isinstance(value, bool) else (
                         "bool" if isinstance(value, bool) else "float")
                     out.append(("coef", bp.coef_slots[arg], kind))
-                elif isinstance(value, tuple) and value and value[0] == "array":
-                    out.append(value)
+                elif arg in bp.coef_arrays:
+                    out.append(bp.coef_arrays[arg])
                 else:
                     out.append(self._static(value))
             else:
@@ -319,10 +320,11 @@ class Program:
             for k, v in bp.cls.derive(bp.params(), self.fs).items():
                 if k in bp.coef_slots:
                     self.coef[bp.coef_slots[k]] = float(v)
-
-
-def cls_fn(cls, which):
-    return getattr(cls, which)
+                elif k in bp.coef_arrays:
+                    target = self.arrays[bp.coef_arrays[k][1]]
+                    if len(v) != len(target):
+                        raise PlanError(f"{block}.{name}: its coefficient {k!r} changes length; that needs a recompile")
+                    target[:] = v
 
 
 class NetPlan:

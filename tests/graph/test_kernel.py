@@ -71,3 +71,38 @@ def test_live_parameter_change_without_recompiling(patches_dir):
     prog.set_param("mic", "gain", 0.0)
     k.run(100, rec, np.zeros((100, 0)))
     assert np.all(rec == 0.0)
+
+
+PLUGIN = '''
+import math
+from hapticgraph.blocks import Block, Out, Param
+
+
+class Chord(Block, name="chord_test"):
+    """out = Σ gains[i] (gains from derive, scaled by the live level)."""
+    y = Out(name="out")
+    level = Param(1.0)
+
+    @staticmethod
+    def derive(p, fs):
+        return {"gains": [p.level, 2.0 * p.level, 3.0 * p.level], "bias": 0.5 * p.level}
+
+    @staticmethod
+    def output(gains, bias):
+        return gains[0] + gains[1] + gains[2] + bias
+'''
+
+
+def test_control_rate_rederive_updates_scalar_and_array_coefficients(tmp_path):
+    (tmp_path / "chord.py").write_text(PLUGIN)
+    (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins: [chord.py]\nblocks:\n  c: {type: chord_test}\nconnect: []\n")
+    for engine in ("compiled", "python"):
+        from hapticgraph.graph.engine import make_runner
+        prog = Program(load(tmp_path / "p.yaml"), probes=["c.out"])
+        runner = make_runner(prog, engine)
+        rec = np.zeros((4, 1))
+        runner.run(0, rec, np.zeros((4, 0)))
+        assert np.all(rec[:, 0] == 6.5)
+        prog.set_param("c", "level", 2.0)      # derive reads a live parameter: coefficients re-derived
+        runner.run(4, rec, np.zeros((4, 0)))
+        assert np.all(rec[:, 0] == 13.0), engine
