@@ -56,3 +56,32 @@ def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)
 @pytest.fixture
 def patches_dir():
     return ROOT / "patches"
+
+
+# a 41-cell lattice string, plucked, heard at cell 12: the patch of the live-edit tests
+EDITABLE_STRING = """
+hapticgraph: 1
+rate: 44100
+blocks:
+  str: {type: lattice, shape: [41], mass: 0.001, tension: 200000.0}
+  hit: {type: pluck, time: 0.0, force: 0.5, duration: 0.0005}
+  mic: {type: mic}
+  out: {type: audio_out, channels: 1}
+connect:
+  - hit.out -> str[5].force
+  - str[12].velocity -> mic.in
+  - mic.left -> out.ch0
+"""
+
+
+@pytest.fixture
+def string_session(write_patch):
+    """string_session(blocksize, editable=True) -> a Session of EDITABLE_STRING."""
+    from hapticgraph import load
+    from hapticgraph.devices import open_drivers
+    from hapticgraph.graph.engine import Session
+
+    def make(blocksize, editable=True):
+        patch = load(write_patch(EDITABLE_STRING))
+        return Session(patch, drivers=open_drivers(patch), blocksize=blocksize, editable=editable)
+    return make

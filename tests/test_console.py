@@ -3,33 +3,14 @@ import io
 
 import numpy as np
 
-from hapticgraph import load
 from hapticgraph.console import Console, parse
-from hapticgraph.devices import open_drivers
-from hapticgraph.graph.engine import Session
 
-PATCH = """
-hapticgraph: 1
-rate: 44100
-blocks:
-  str: {type: lattice, shape: [41], mass: 0.001, tension: 200000.0}
-  hit: {type: pluck, force: 0.5, duration: 0.0005}
-  mic: {type: mic}
-  out: {type: audio_out, channels: 1}
-connect:
-  - hit.out -> str[5].force
-  - str[12].velocity -> mic.in
-  - mic.left -> out.ch0
-"""
+def session(string_session, editable=True):
+    return string_session(256, editable)
 
 
-def session(write_patch, editable=True):
-    patch = load(write_patch(PATCH))
-    return Session(patch, drivers=open_drivers(patch), blocksize=256, editable=editable)
-
-
-def test_commands_apply_at_the_next_block(write_patch):
-    s = session(write_patch)
+def test_commands_apply_at_the_next_block(string_session):
+    s = session(string_session)
     out = io.StringIO()
     console = Console(lambda: s, stream=io.StringIO("set mic.gain 0\nlock str[20]\ncut str[30]\n"), out=out)
     console.run()                     # read every line (the thread's body), queue the edits
@@ -41,8 +22,8 @@ def test_commands_apply_at_the_next_block(write_patch):
     assert np.all(s.process(256)[:, 0] == 0.0)
 
 
-def test_mistakes_change_nothing(write_patch):
-    s = session(write_patch)
+def test_mistakes_change_nothing(string_session):
+    s = session(string_session)
     out = io.StringIO()
     console = Console(lambda: s, stream=io.StringIO(
         "set mic.nope 1\nset mic.pan 3\nset nobody.gain 1\nlock str[99]\nfrobnicate\nset hit.force x\n"), out=out)
@@ -55,8 +36,8 @@ def test_mistakes_change_nothing(write_patch):
         assert needle in text
 
 
-def test_stencil_sessions_refuse_cell_edits(write_patch):
-    s = session(write_patch, editable=False)
+def test_stencil_sessions_refuse_cell_edits(string_session):
+    s = session(string_session, editable=False)
     try:
         parse("lock str[3]", s.prog)
     except ValueError as exc:

@@ -4,29 +4,10 @@ import numpy as np
 import pytest
 
 from analysis import spectral_peak
-from hapticgraph import load
-from hapticgraph.devices import open_drivers
-from hapticgraph.graph.engine import Session
 from hapticgraph.graph.program import PlanError
 
-STRING = """
-hapticgraph: 1
-rate: 44100
-blocks:
-  str: {type: lattice, shape: [41], mass: 0.001, tension: 200000.0}
-  hit: {type: pluck, time: 0.0, force: 0.5, duration: 0.0005}
-  mic: {type: mic}
-  out: {type: audio_out, channels: 1}
-connect:
-  - hit.out -> str[5].force
-  - str[12].velocity -> mic.in
-  - mic.left -> out.ch0
-"""
-
-
-def session(write_patch, editable=True):
-    patch = load(write_patch(STRING))
-    return Session(patch, drivers=open_drivers(patch), blocksize=4096, editable=editable)
+def session(string_session, editable=True):
+    return string_session(4096, editable)
 
 
 def pitch(s, fmin, fmax, blocks=8):
@@ -34,8 +15,8 @@ def pitch(s, fmin, fmax, blocks=8):
     return spectral_peak(y, 44100.0, fmin, fmax)
 
 
-def test_lock_the_middle_halves_the_string(write_patch):
-    s = session(write_patch)
+def test_lock_the_middle_halves_the_string(string_session):
+    s = session(string_session)
     f_full = pitch(s, 100, 250)
     s.edit(s.prog.edit_cell, "str", (20,), "lock")     # a node in the middle: each half is 20 cells
     s.edit(s.prog.set_param, "hit", "force", 0.5)
@@ -49,8 +30,8 @@ def test_lock_the_middle_halves_the_string(write_patch):
     s.process(4096)
 
 
-def test_cut_cell_removes_its_springs(write_patch):
-    s = session(write_patch)
+def test_cut_cell_removes_its_springs(string_session):
+    s = session(string_session)
     s.process(4096)
     s.edit(s.prog.edit_cell, "str", (30,), "cut")
     s.process(1)
@@ -61,15 +42,15 @@ def test_cut_cell_removes_its_springs(write_patch):
         s.prog.edit_cell("str", (30,), "lock")
 
 
-def test_set_param_at_block_boundary(write_patch):
-    s = session(write_patch)
+def test_set_param_at_block_boundary(string_session):
+    s = session(string_session)
     a = s.process(4096)[:, 0].copy()
     s.edit(s.prog.set_param, "mic", "gain", 0.0)
     assert np.any(a != 0.0)
     assert np.all(s.process(4096)[:, 0] == 0.0)
 
 
-def test_stencil_networks_refuse_cell_edits(write_patch):
-    s = session(write_patch, editable=False)
+def test_stencil_networks_refuse_cell_edits(string_session):
+    s = session(string_session, editable=False)
     with pytest.raises(PlanError, match="editable"):
         s.prog.edit_cell("str", (3,), "lock")
