@@ -377,16 +377,26 @@ def _check_definition(cls):
                 fail(f"{fname}() argument {a!r} is not a port, parameter, state, buffer or coefficient")
 
 
+_HELPERS = []   # @helper functions not yet registered with numba
+
+
 def helper(fn):
     """Mark a plain function that block functions call, so the compiled kernel can call it too.
 
-    In Python it stays the same function (the reference interpreter calls it as is).
+    In Python it stays the same function (the reference interpreter calls it as is). It is
+    registered with numba when a kernel is first compiled (register_helpers), so that loading
+    and checking a patch never imports numba.
     """
-    try:
-        from numba.extending import register_jitable
-    except ImportError:  # numba missing: only the reference interpreter can run
-        return fn
-    return register_jitable(fn)
+    _HELPERS.append(fn)
+    return fn
+
+
+def register_helpers():
+    """Register every @helper defined so far with numba (register_jitable); the compiler calls this
+    before it jits anything."""
+    from numba.extending import register_jitable
+    while _HELPERS:
+        register_jitable(_HELPERS.pop())
 
 
 def block_equation(cls):

@@ -14,6 +14,7 @@ import os
 import sys
 import time
 
+from ..blocks.core import register_helpers
 from .program import Program
 
 _jitted = {}
@@ -31,6 +32,7 @@ def jit(fn, cache=True):
     d = _jitted.get((fn, cache))
     if d is None:
         import numba
+        register_helpers()
         d = _jitted[(fn, cache)] = numba.njit(fn, cache=cache, inline="always")
     return d
 
@@ -257,6 +259,7 @@ class CompiledKernel:
 
     def __init__(self, prog: Program):
         import numba
+        register_helpers()
         start = time.perf_counter()
         self.prog = prog
         source, fns = generate(prog)
