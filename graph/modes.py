@@ -155,10 +155,11 @@ def modal_frequencies(patch, count=20):
     return {m.name: m.frequencies for m in network_modes(patch, count)}
 
 
-def mode_shape(patch, lattice, mode=0):
-    """(frequency in Hz, shape) of a network's mode `mode` (0: the lowest, rigid modes included)
-    as seen on the lattice or cell block `lattice`: an array of its shape, the displacement of each
-    cell (NaN for cut cells, 0 for locked ones), normalised to a peak of 1."""
+def mode_shape(patch, lattice, mode=1):
+    """(frequency in Hz, shape) of a network's mode `mode`, numbered from 1 as `hapticgraph modes`
+    lists them (1: the lowest, rigid modes included), as seen on the lattice or cell block
+    `lattice`: an array of its shape, the displacement of each cell (NaN for cut cells, 0 for
+    locked ones), normalised to a peak of 1."""
     import scipy.linalg as la
     import scipy.sparse as sp
     from .network import Network, group
@@ -168,12 +169,16 @@ def mode_shape(patch, lattice, mode=0):
         net = Network(members, springs, patch.rate, stencils=False)
         mass = net.masses()
         idx = np.nonzero(np.isfinite(mass))[0]
-        if not 0 <= mode < len(idx):
-            raise ValueError(f"mode {mode} does not exist: the network of {lattice!r} has {len(idx)} movable cells")
+        if mode < 1:
+            raise ValueError(f"mode {mode} does not exist: modes are numbered from 1 (the lowest), "
+                             f"as `hapticgraph modes` lists them")
+        if mode > len(idx):
+            raise ValueError(f"mode {mode} does not exist: the network of {lattice!r} has {len(idx)} "
+                             f"movable cells, so modes 1 to {len(idx)}")
         k = net.stiffness_matrix()[idx][:, idx]
         d = sp.diags(1.0 / np.sqrt(mass[idx]))
         a = (d @ k @ d).toarray()
-        lam, vec = la.eigh(0.5 * (a + a.T), subset_by_index=[mode, mode])
+        lam, vec = la.eigh(0.5 * (a + a.T), subset_by_index=[mode - 1, mode - 1])
         x = np.zeros(net.n)
         x[idx] = vec[:, 0] / np.sqrt(mass[idx])     # back from mass-weighted coordinates
         peak = np.max(np.abs(x))

@@ -1,30 +1,86 @@
 """hapticgraph: physical-model haptic musical instruments, compiled to one single-sample kernel.
 
-    patch = hapticgraph.load("patches/karplus_strong.yaml")
+    import hapticgraph
+    patch = hapticgraph.load("patches/karplus_strong.yaml")      # raises PatchError
+    problems = hapticgraph.check("patches/karplus_strong.yaml")  # [] when the patch is fine
     result = hapticgraph.render(patch, seconds=1.0, probes=["loop.out"])
     result.audio, result.probes["loop.out"], result.rate
+
+The names are imported when first used (PEP 562), so `import hapticgraph` and the command line's
+`--help`, `check` and `graph` start without numba, scipy or sounddevice.
 """
+import importlib
 import os
 
-from .blocks import Block, Buffer, In, Out, Param, State, helper
-from .graph.engine import Render
-from .graph.engine import render as _render
-from .graph.errors import PatchError, Problem
-from .graph.patch import Patch
-from .graph.patch import load
-from .graph.registry import Registry
-from .devices import open_drivers
-
 __version__ = "0.1.0"
+
+# public name -> (module relative to this package, attribute)
+_LAZY = {
+    "Block": (".blocks", "Block"),
+    "Buffer": (".blocks", "Buffer"),
+    "In": (".blocks", "In"),
+    "Out": (".blocks", "Out"),
+    "Param": (".blocks", "Param"),
+    "State": (".blocks", "State"),
+    "helper": (".blocks", "helper"),
+    "Patch": (".graph.patch", "Patch"),
+    "Registry": (".graph.registry", "Registry"),
+    "Render": (".graph.engine", "Render"),
+    "PatchError": (".graph.errors", "PatchError"),
+    "Problem": (".graph.errors", "Problem"),
+    "PlanError": (".graph.program", "PlanError"),
+    "SafetyStop": (".graph.engine", "SafetyStop"),
+    "DeviceError": (".devices", "DeviceError"),
+    "open_drivers": (".devices", "open_drivers"),
+}
+
+
+def __getattr__(name):
+    try:
+        module, attr = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'hapticgraph' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module, __name__), attr)
+    globals()[name] = value          # the next lookup is a plain attribute
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
+
+def load(path, overrides=(), registry=None):
+    """Load and check a patch file: a Patch, or PatchError listing every problem (`.problems`).
+
+    `overrides` are "BLOCK.PARAM=VALUE" strings, as `--set` takes them.
+    """
+    from .graph.patch import load as _load
+    return _load(path, overrides=overrides, registry=registry)
+
+
+def check(path, overrides=()):
+    """Every problem of a patch file, as a list of Problem (`.file`, `.line`, `.message`); empty
+    when the patch is fine. Nothing is compiled or run."""
+    from .graph.errors import PatchError
+    try:
+        load(path, overrides=overrides)
+    except PatchError as exc:
+        return list(exc.problems)
+    return []
 
 
 def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devices=None, drivers=None,
            safety=False, chunk=1 << 14, runaway=1e3):
-    """Render a patch (a Patch or a path) offline: `.audio` (frames × channels), `.probes`, `.rate`.
+    """Render a patch (a Patch or a path) offline to arrays: a Render with `.audio`
+    (frames × channels, float64), `.probes` ({name: array}) and `.rate`.
 
     Devices run on their patch's drivers (the simulated device by default); `devices` maps a
-    device name to another driver name, `drivers` to ready Driver objects.
+    device name to another driver name, `drivers` to ready Driver objects. Raises PatchError for a
+    bad patch, PlanError for a probe or device the patch cannot supply, SafetyStop (when
+    `safety=True`) for a NaN, an infinity or a runaway.
     """
+    from .devices import open_drivers
+    from .graph.engine import render as _render
     if isinstance(patch, (str, os.PathLike)):
         patch = load(patch)
     if drivers is None:
@@ -33,5 +89,6 @@ def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devi
                    safety=safety, chunk=chunk, runaway=runaway)
 
 
-__all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "PatchError", "Problem",
-           "Registry", "Render", "load", "render", "__version__"]
+__all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render",
+           "load", "check", "render", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
+           "__version__"]

@@ -7,23 +7,51 @@ import argparse
 import json
 import os
 import sys
+import textwrap
 
-from .graph.errors import PatchError
-from .graph.patch import load
-from .graph.program import PlanError
-from .graph.registry import Registry
-from .graph.schema import patch_schema
+from .graph.errors import PatchError      # light: the engine is imported once a command runs
 
 
 class UsageError(Exception):
     pass
 
 
+def _import_engine():
+    """Bind the engine's names the commands use. Called by main() after the arguments are parsed,
+    so `--help` (and a usage error) never imports numpy, numba or the block library."""
+    global load, PlanError, Registry, patch_schema
+    from .graph.patch import load
+    from .graph.program import PlanError
+    from .graph.registry import Registry
+    from .graph.schema import patch_schema
+
+
+def _command(sub, name, help, description, examples):
+    """A subcommand whose --help has a description and examples (shown as written)."""
+    epilog = "examples:\n" + "\n".join(f"  {e}" for e in examples)
+    return sub.add_parser(name, help=help, description=textwrap.fill(description, 88), epilog=epilog,
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
 def _parser():
-    ap = argparse.ArgumentParser(prog="hapticgraph", description="Physical-model haptic instruments from YAML patches.")
+    ap = argparse.ArgumentParser(
+        prog="hapticgraph", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Physical-model haptic instruments from YAML patches, compiled to one kernel.",
+        epilog="examples:\n"
+               "  hapticgraph check patches/karplus_strong.yaml\n"
+               "  hapticgraph run patches/karplus_strong.yaml --seconds 2 --out karplus_strong.wav\n"
+               "  hapticgraph COMMAND --help        (each command's options and examples)\n\n"
+               "exit status: 0 success, 2 a patch or command-line error, 1 anything else")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    run = sub.add_parser("run", help="render a patch offline to a 32-bit float WAV (and probes to .npz)")
+    run = _command(sub, "run", "render a patch offline to an audio file (and probes to .npz)",
+                   "Render a patch offline, as fast as the machine allows, to an audio file (the format "
+                   "follows the extension: .wav, .flac, .ogg) and, with --probe, the probed signals to "
+                   ".npz. Devices run on their drivers (the simulated device by default).",
+                   ["hapticgraph run patches/karplus_strong.yaml --seconds 2 --out karplus_strong.wav",
+                    "hapticgraph run patches/karplus_strong.yaml --out ks.flac --set damp.gain=0.99",
+                    "hapticgraph run patches/fig8_pluck_damp.yaml --probe tip.force --probe finger.x",
+                    "hapticgraph run my_string.yaml --replay take.hgrec"])
     run.add_argument("patch")
     run.add_argument("--seconds", type=float, default=None,
                      help="length to render (default 2; with --replay, the take's length)")
@@ -42,7 +70,14 @@ def _parser():
                      help="feed every device and live input from a take made by `play --record` "
                           "(--seconds defaults to the take's length)")
 
-    play = sub.add_parser("play", help="play a patch in real time through the sound card")
+    play = _command(sub, "play", "play a patch in real time through the sound card",
+                    "Play a patch in real time: the sound card's clock drives the kernel block by block; "
+                    "devices are read on their own threads and every force sent is clamped to the "
+                    "device's max_force. Runs until Ctrl-C unless --seconds is given.",
+                    ["hapticgraph play patches/karplus_strong.yaml --seconds 2",
+                     "hapticgraph play my_string.yaml --device finger=hid,profile=haptic_1dof --blocksize 64",
+                     "hapticgraph play my_string.yaml --record take --watch",
+                     "hapticgraph play patches/cymatic_sheet.yaml --console"])
     play.add_argument("patch")
     play.add_argument("--audio-device", metavar="D", help="output device: index or (part of) its name "
                       "(see `hapticgraph devices`; default: the system's default)")
@@ -67,43 +102,80 @@ def _parser():
                       help="choose a device's driver (simulated, hid, replay)")
     play.add_argument("--fade", type=float, default=0.005, metavar="SECONDS", help=argparse.SUPPRESS)
 
-    sub.add_parser("devices", help="list sound cards and HID devices")
+    _command(sub, "devices", "list sound cards and HID devices",
+             "List the sound cards PortAudio sees (index, name, channels, rate) and the HID devices "
+             "hidapi sees (vendor:product id, name, the shipped profile that matches).",
+             ["hapticgraph devices", "hapticgraph play PATCH --audio-device 3"])
 
-    check = sub.add_parser("check", help="check a patch and report every problem")
+    check = _command(sub, "check", "check a patch and report every problem",
+                     "Load and check a patch without compiling or running it: every problem is printed "
+                     "as FILE:LINE: message (exit 2); a good patch prints ok and its schedule.",
+                     ["hapticgraph check patches/karplus_strong.yaml",
+                      "hapticgraph check my_string.yaml --set bridge.gain=-0.99"])
     check.add_argument("patch")
-    check.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
+    check.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
+                       help="override a parameter (repeatable)")
 
-    blocks = sub.add_parser("blocks", help="list the block types (built-in and plugins)")
+    blocks = _command(sub, "blocks", "list the block types (built-in and plugins)",
+                      "List every block type: its input ports (* a live parameter, also an input), its "
+                      "outputs, its equation and its parameters with units and defaults.",
+                      ["hapticgraph blocks", "hapticgraph blocks --markdown > docs/blocks.md",
+                       "hapticgraph blocks --patch examples/file_plugin/saturated_string.yaml --json"])
     blocks.add_argument("--json", action="store_true", help="machine-readable")
     blocks.add_argument("--markdown", action="store_true", help="the block reference (docs/blocks.md)")
     blocks.add_argument("--patch", help="also load this patch's plugins")
 
-    sub.add_parser("schema", help="print the JSON Schema of a patch (for editors)")
+    _command(sub, "schema", "print the JSON Schema of a patch (for editors)",
+             "Print the JSON Schema of a patch, assembled from every block's declarations, for an "
+             "editor's YAML support (completion and checking of block types and parameters).",
+             ["hapticgraph schema > hapticgraph.schema.json"])
 
-    graph = sub.add_parser("graph", help="export the patch graph as Graphviz dot or Mermaid")
+    graph = _command(sub, "graph", "export the patch graph as Graphviz dot or Mermaid",
+                     "Write the patch's blocks and connections as a Graphviz dot or Mermaid graph "
+                     "(nothing is compiled).",
+                     ["hapticgraph graph patches/karplus_strong.yaml --format mermaid",
+                      "hapticgraph graph patches/karplus_strong.yaml -o ks.dot && dot -Tpng ks.dot -o ks.png"])
     graph.add_argument("patch")
-    graph.add_argument("--format", choices=("dot", "mermaid"), default="dot")
+    graph.add_argument("--format", choices=("dot", "mermaid"), default="dot", help="default dot")
     graph.add_argument("-o", "--out", metavar="FILE", help="write here instead of standard output")
 
-    plot = sub.add_parser("plot", help="render a patch and draw probe traces and a spectrogram to PNG")
+    plot = _command(sub, "plot", "render a patch and draw probe traces and a spectrogram to PNG",
+                    "Render a patch and draw each probe against time [s], in its quantity and unit, "
+                    "above a spectrogram (frequency [Hz]) of the audio; or, with --mode N, draw mode N "
+                    "of a lattice (numbered from 1, the lowest, as `hapticgraph modes` lists them). "
+                    "Needs matplotlib: pip install \"hapticgraph[plot]\".",
+                    ["hapticgraph plot patches/karplus_strong.yaml --probe loop.out --window 0 0.02 -o ks.png",
+                     "hapticgraph plot patches/fig8_pluck_damp.yaml --seconds 1.5 --probe finger.x "
+                     "--probe tip.force -o fig8.png",
+                     "hapticgraph plot patches/babe_is_sleeping.yaml --lattice cym_a --mode 5 -o mode.png"])
     plot.add_argument("patch")
     plot.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT", help="a trace to draw (repeatable)")
-    plot.add_argument("-o", "--out", required=True, metavar="FILE.png")
+    plot.add_argument("-o", "--out", required=True, metavar="FILE.png", help="the PNG to write")
     plot.add_argument("--seconds", type=float, default=1.0, help="length to render (default 1)")
     plot.add_argument("--window", nargs=2, type=float, metavar=("T0", "T1"), help="time window of the traces [s]")
     plot.add_argument("--spectrogram", default="audio", metavar="audio|BLOCK.PORT|none",
                       help="what the spectrogram shows (default: the audio)")
-    plot.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
-    plot.add_argument("--title", default=None)
+    plot.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
+                      help="override a parameter (repeatable)")
+    plot.add_argument("--title", default=None, help="the figure's title (default: the patch's name)")
     plot.add_argument("--mode", type=int, metavar="N",
-                      help="draw mode N (0: the lowest) of a lattice instead of rendering (with --lattice)")
-    plot.add_argument("--lattice", metavar="NAME", help="the lattice or cell block whose mode is drawn")
+                      help="draw mode N of a lattice instead of rendering (1: the lowest, as `modes` "
+                           "numbers them)")
+    plot.add_argument("--lattice", metavar="NAME", help="the lattice or cell block whose mode is drawn "
+                      "(default: the first)")
 
-    modes = sub.add_parser("modes", help="predicted modal frequencies of each mass-spring network")
+    modes = _command(sub, "modes", "predicted modal frequencies of each mass-spring network",
+                     "Predict the lowest modal frequencies of each mass-spring network (lossless, with "
+                     "the half-step scheme's discrete-time correction), numbered from 1 (the lowest), "
+                     "so an instrument can be tuned before it is heard.",
+                     ["hapticgraph modes patches/cymatic_string.yaml --count 5",
+                      "hapticgraph modes patches/babe_is_sleeping.yaml --json",
+                      "hapticgraph plot patches/babe_is_sleeping.yaml --lattice cym_a --mode 5 -o mode.png"])
     modes.add_argument("patch")
     modes.add_argument("--count", type=int, default=20, metavar="N", help="modes per network (default 20)")
     modes.add_argument("--json", action="store_true", help="machine-readable")
-    modes.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides")
+    modes.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
+                       help="override a parameter (repeatable)")
     return ap
 
 
@@ -378,8 +450,15 @@ def _cmd_devices(args):
 
 
 def _cmd_plot(args):
-    from . import render
-    from .plot import plot_mode, plot_render
+    from . import plot
+    try:
+        plot.pyplot()                 # before any work: without matplotlib, one line and exit 1
+    except plot.MatplotlibMissing as exc:
+        print(f"hapticgraph: {exc}", file=sys.stderr)
+        return 1
+    if args.mode is not None and args.mode < 1:
+        raise UsageError(f"--mode {args.mode}: modes are numbered from 1 (the lowest), as "
+                         f"`hapticgraph modes` lists them")
     patch = load(args.patch, overrides=args.overrides)
     if args.mode is not None or args.lattice:
         from .graph.modes import mode_shape
@@ -387,13 +466,15 @@ def _cmd_plot(args):
         name = args.lattice or (lattices[0] if lattices else None)
         if name is None:
             raise UsageError("--mode: the patch has no lattice or cell block")
+        mode = args.mode or 1
         try:
-            freq, shape = mode_shape(patch, name, args.mode or 0)
+            freq, shape = mode_shape(patch, name, mode)
         except ValueError as exc:
             raise UsageError(f"--mode: {exc}") from None
-        plot_mode(freq, shape, args.out, title=args.title or f"{patch.name}: {name}, mode {args.mode or 0}:")
-        print(f"{args.patch}: {name} mode {args.mode or 0} at {freq:.2f} Hz -> {args.out}")
+        plot.plot_mode(freq, shape, args.out, title=args.title or f"{patch.name}: {name}, mode {mode}:")
+        print(f"{args.patch}: {name} mode {mode} at {freq:.2f} Hz -> {args.out}")
         return 0
+    from . import render
     spec = None if args.spectrogram == "none" else args.spectrogram
     probes = list(args.probe)
     if spec not in (None, "audio") and spec not in probes:
@@ -406,8 +487,8 @@ def _cmd_plot(args):
         spec = probes[0] if probes else None
     if not probes and spec is None:
         raise UsageError("nothing to draw: give --probe or a patch with audio_out")
-    plot_render(result, list(args.probe), args.out, title=args.title or patch.name,
-                window=tuple(args.window) if args.window else None, spectrogram=spec)
+    plot.plot_render(result, list(args.probe), args.out, title=args.title or patch.name,
+                     window=tuple(args.window) if args.window else None, spectrogram=spec, patch=patch)
     print(f"{args.patch}: {len(args.probe)} trace(s){' and a spectrogram' if spec else ''} -> {args.out}")
     return 0
 
@@ -454,6 +535,7 @@ def _cmd_graph(args):
 
 def main(argv=None):
     args = _parser().parse_args(argv)
+    _import_engine()
     try:
         if args.command == "schema":
             print(json.dumps(patch_schema(Registry()), indent=2))

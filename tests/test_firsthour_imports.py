@@ -1,0 +1,66 @@
+"""Fast start: `hapticgraph --help`, `check`, `graph` (and `import hapticgraph`) import neither numba,
+scipy nor sounddevice; they are imported when a kernel is compiled, a mode solved or a card opened.
+Each case runs in a fresh interpreter; the time it takes is measured in the report, never asserted."""
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT
+
+HEAVY = ("numba", "scipy", "sounddevice")
+
+# run `hapticgraph ARGS` in this interpreter, then print which heavy modules were imported
+PROBE = """
+import sys
+from hapticgraph.cli import main
+try:
+    status = main({args!r})
+except SystemExit as exc:          # --help exits from argparse
+    status = exc.code
+print("STATUS", status)
+print("HEAVY", ",".join(m for m in {heavy!r} if m in sys.modules))
+"""
+
+
+def _heavy_after(code, cwd):
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=cwd)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    lines = dict(line.split(" ", 1) if " " in line else (line, "") for line in proc.stdout.splitlines()
+                 if line.startswith(("STATUS", "HEAVY")))
+    return lines.get("STATUS"), [m for m in lines.get("HEAVY", "").split(",") if m]
+
+
+@pytest.mark.parametrize("args", [
+    ["--help"],
+    ["check", "patches/karplus_strong.yaml"],
+    ["check", "patches/fig8_pluck_damp.yaml"],            # devices (a simulated finger) and couplings
+    ["check", "patches/babe_is_sleeping.yaml"],           # lattices and springs
+    ["check", "examples/file_plugin/saturated_string.yaml"],   # a plugin file with @helper functions
+    ["graph", "patches/fig8_pluck_damp.yaml", "--format", "mermaid"],
+    ["graph", "patches/babe_is_sleeping.yaml"],
+], ids=lambda a: " ".join(a))
+def test_command_imports_no_heavy_module(args):
+    status, heavy = _heavy_after(PROBE.format(args=args, heavy=HEAVY), cwd=ROOT)
+    assert status == "0"
+    assert heavy == [], f"hapticgraph {' '.join(args)} imported {heavy}"
+
+
+def test_import_hapticgraph_and_its_api_names_is_light():
+    code = ("import sys, hapticgraph\n"
+            "from hapticgraph import load, check, PatchError, Problem\n"
+            "problems = check('patches/karplus_strong.yaml')\n"
+            "print('STATUS', len(problems))\n"
+            f"print('HEAVY', ','.join(m for m in {HEAVY!r} if m in sys.modules))\n")
+    status, heavy = _heavy_after(code, cwd=ROOT)
+    assert status == "0" and heavy == []
+
+
+def test_the_heavy_modules_do_come_when_a_kernel_is_compiled():
+    """The probe can see numba: rendering with the compiled engine imports it."""
+    code = ("import sys, hapticgraph\n"
+            "r = hapticgraph.render('patches/karplus_strong.yaml', seconds=0.01)\n"
+            "print('STATUS', r.audio.shape[0])\n"
+            f"print('HEAVY', ','.join(m for m in {HEAVY!r} if m in sys.modules))\n")
+    status, heavy = _heavy_after(code, cwd=ROOT)
+    assert status == "441" and "numba" in heavy
