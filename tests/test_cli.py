@@ -3,6 +3,7 @@ import json
 
 import jsonschema
 import numpy as np
+import pytest
 import yaml
 from scipy.io import wavfile
 
@@ -55,3 +56,19 @@ def test_schema_accepts_every_patch(capsys):
 def test_check_ok(patches_dir, capsys):
     assert main(["check", str(patches_dir / "karplus_strong.yaml")]) == 0
     assert "ok: 5 blocks" in capsys.readouterr().out
+
+
+def test_every_subcommand_help_has_a_description_and_an_example(capsys):
+    from hapticgraph.cli import _parser
+    sub = next(a for a in _parser()._actions if a.dest == "command")
+    assert set(sub.choices) >= {"run", "play", "check", "blocks", "schema", "graph", "plot", "modes", "devices"}
+    for name in sub.choices:
+        with pytest.raises(SystemExit) as done:
+            main([name, "--help"])
+        assert done.value.code == 0
+        text = capsys.readouterr().out
+        description = text.split("\n\n")[1]
+        assert len(description.split()) >= 8, (name, description)
+        examples = text.split("examples:\n", 1)[1].splitlines()
+        assert examples and all(e.startswith("  hapticgraph ") for e in examples if e.strip()), (name, text)
+        assert any(e.startswith(f"  hapticgraph {name}") for e in examples), (name, examples)
