@@ -1,4 +1,4 @@
-"""Haptic coupling to digital waveguides (seed 000): control junctions, estimators, couplings, bow.
+"""Haptic coupling to digital waveguides (Berdahl et al. 2009): control junctions, estimators, couplings, bow.
 
 Sign conventions shared by every block here: waves are velocity waves (m/s); a junction's
 `force` is the force ON THE STRING, positive along the string's positive velocity; the device
@@ -13,7 +13,7 @@ _IMPEDANCE_DOC = "wave impedance R0 of the string at the junction (a force F lau
 
 
 class ExplicitJunction(Block, name="explicit_junction"):
-    """v[n] = aL[n] + bR[n−1] + F[n−1]/(2R0), bL[n] = bR[n−1] + F[n−1]/(2R0), aR[n] = aL[n−1] + F[n−1]/(2R0).  Ref: seed 000 Fig. 4, Sec. 3.1.
+    """v[n] = aL[n] + bR[n−1] + F[n−1]/(2R0), bL[n] = bR[n−1] + F[n−1]/(2R0), aR[n] = aL[n−1] + F[n−1]/(2R0).  Ref: Berdahl et al. 2009 Fig. 4, Sec. 3.1.
 
     The sensor (which outputs `v`) and the actuator sit one sample apart: each direction of travel
     passes one unit delay, and the force enters the waveguide one sample after the sample in which
@@ -41,7 +41,7 @@ class ExplicitJunction(Block, name="explicit_junction"):
         # Fig. 4 read literally gives aR[n] = aL[n−1] + F[n]/(2R0): the actuator would inject the
         # force of the current sample into the right-going wave, so `force` would feed through to
         # aR and the usual loop junction.v -> spring_damper -> junction.force would be an algebraic
-        # loop (the scheduler orders whole blocks). Injecting F[n−1] instead keeps the seed's point
+        # loop (the scheduler orders whole blocks). Injecting F[n−1] instead keeps the paper's point
         # (the force is applied one sample after the sensor reads the velocity that produced it),
         # keeps v and bL exactly as in Fig. 4, and launches equal waves F/(2R0) both ways in the
         # same sample.
@@ -55,12 +55,12 @@ class ExplicitJunction(Block, name="explicit_junction"):
 
 
 class ImplicitJunction(Block, name="implicit_junction"):
-    """F = 2R0/(2R0 + R + k/fs)·(k(xm − p·x[n−1]) + R·vm − (R + k/fs)(aL + bR)); v = aL + bR + F/(2R0), aR = aL + F/(2R0), bL = bR + F/(2R0), x = p·x[n−1] + v/fs.  Ref: seed 000 eqs. (1)–(4).
+    """F = 2R0/(2R0 + R + k/fs)·(k(xm − p·x[n−1]) + R·vm − (R + k/fs)(aL + bR)); v = aL + bR + F/(2R0), aR = aL + F/(2R0), bL = bR + F/(2R0), x = p·x[n−1] + v/fs.  Ref: Berdahl et al. 2009 eqs. (1)–(4).
 
     The spring k and damper R between the device (xm, vm) and the string are solved together with
     the junction in the same sample (no unit delays). `force` is F, the force on the string; the
     device receives −F. k and R are read every sample, so they can be modulated (binding,
-    plucking by releasing k); a nonlinear damper (bowing) needs its own solution, seed 000 Sec. 3.3.
+    plucking by releasing k); a nonlinear damper (bowing) needs its own solution, Berdahl et al. 2009 Sec. 3.3.
     """
 
     aL = In(doc="velocity wave arriving from the left, travelling right")
@@ -98,7 +98,7 @@ class ImplicitJunction(Block, name="implicit_junction"):
 
 
 class VelocityEstimator(Block, name="velocity_estimator"):
-    """d[n] = (in[n] − in[n−1])·fs (d[0] = 0); out[n] = (1 − a)·d[n] + a·out[n−1], a = exp(−2π·cutoff/fs), a = 0 when cutoff = 0.  Ref: seed 000 Fig. 6.
+    """d[n] = (in[n] − in[n−1])·fs (d[0] = 0); out[n] = (1 − a)·d[n] + a·out[n−1], a = exp(−2π·cutoff/fs), a = 0 when cutoff = 0.  Ref: Berdahl et al. 2009 Fig. 6.
 
     The first sample has no predecessor, so its difference is 0: a device resting away from 0
     gives no start-up spike. `cutoff` is a design constant of the estimator (not live).
@@ -132,7 +132,7 @@ class VelocityEstimator(Block, name="velocity_estimator"):
 
 
 class DisplacementEstimator(Block, name="displacement_estimator"):
-    """out[n] = p·out[n−1] + in[n]/fs (a leaky integrator; p < 1 forgets a velocity offset).  Ref: seed 000 eq. (3)."""
+    """out[n] = p·out[n−1] + in[n]/fs (a leaky integrator; p < 1 forgets a velocity offset).  Ref: Berdahl et al. 2009 eq. (3)."""
 
     x = In(name="in", doc="velocity [m/s]")
     y = Out(name="out", doc="displacement [m]")
@@ -153,7 +153,7 @@ class DisplacementEstimator(Block, name="displacement_estimator"):
 
 
 class SpringDamper(Block, name="spring_damper"):
-    """force = k(x1 − x2) + R(v1 − v2) (on body 2, the string), reaction = −force (on body 1, the device).  Ref: seed 000 eq. (1)."""
+    """force = k(x1 − x2) + R(v1 − v2) (on body 2, the string), reaction = −force (on body 1, the device).  Ref: Berdahl et al. 2009 eq. (1)."""
 
     x1 = In(doc="position of body 1, e.g. the device [m]")
     v1 = In(doc="velocity of body 1 [m/s]")
@@ -186,7 +186,7 @@ def _pluck(d, k, release, engaged, side):
 
 
 class Plucker(Block, name="plucker"):
-    """force = k·(x1 − x2) while engaged, else 0; it releases when |k(x1 − x2)| > release and re-engages when x1 − x2 changes sign from its side at release.  Ref: seed 000 Sec. 3.2.
+    """force = k·(x1 − x2) while engaged, else 0; it releases when |k(x1 − x2)| > release and re-engages when x1 − x2 changes sign from its side at release.  Ref: Berdahl et al. 2009 Sec. 3.2.
 
     State: `engaged` (0/1) and `side` (the sign of d = x1 − x2 the finger is on, 0 = not yet
     known). It starts disengaged; the first non-zero d sets `side`. Each sample, with d[n]:
@@ -245,7 +245,7 @@ def _lookup(table, u):
 
 
 class Bow(Block, name="bow"):
-    """force = max(pressure, 0)·μ(bow_velocity − v), μ(Δv) = Δv/√(Δv² + ε²)·(μd + (μs − μd)·v0/(v0 + |Δv|)), or μ from `table`.  Ref: seed 000 Sec. 3.2; Woodhouse & Galluzzo, Acta Acustica 90 (2004).
+    """force = max(pressure, 0)·μ(bow_velocity − v), μ(Δv) = Δv/√(Δv² + ε²)·(μd + (μs − μd)·v0/(v0 + |Δv|)), or μ from `table`.  Ref: Berdahl et al. 2009 Sec. 3.2; Woodhouse & Galluzzo, Acta Acustica 90 (2004).
 
     A nonlinear damper: the friction force drives the string toward the bow's velocity (a
     positive Δv = bow_velocity − v gives a positive force on the string; the bow, i.e. the device,

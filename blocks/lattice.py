@@ -1,4 +1,4 @@
-"""Mass-spring instruments (seed 001, Cymatic): cells, n-dimensional lattices and springs.
+"""Mass-spring instruments (Howard & Rimell 2003, Cymatic): cells, n-dimensional lattices and springs.
 
 These blocks declare; the graph layer fuses every group of touching cells, lattices and
 springs into ONE structure-of-arrays network updated by `network_step` (CSR spring lists) or
@@ -35,7 +35,7 @@ def stability_number(dt, stiffness_sum, mass, damping):
 
 
 class Cell(Block, name="cell"):
-    """m·(v[n+½] − v[n−½])/dt = F[n] + Σ springs − γ·v[n−½], x[n+1] = x[n] + dt·v[n+½].  Ref: seed 001 (cells)."""
+    """m·(v[n+½] − v[n−½])/dt = F[n] + Σ springs − γ·v[n−½], x[n+1] = x[n] + dt·v[n+½].  Ref: Howard & Rimell 2003 (cells)."""
 
     force = In(doc="external force [N]")
     position = Out(doc="x[n] [m]")
@@ -47,7 +47,7 @@ class Cell(Block, name="cell"):
 
 
 class Lattice(Block, name="lattice"):
-    """Each cell: m·a = tension·Σ_neighbours(x_j − x_i) + F − damping·v (half-step); outside a fixed boundary x = 0.  Ref: seed 001."""
+    """Each cell: m·a = tension·Σ_neighbours(x_j − x_i) + F − damping·v (half-step); outside a fixed boundary x = 0.  Ref: Howard & Rimell 2003."""
 
     shape = Param([10], schema={**SHAPE, "description": "cells along each axis: [n] string, [n, m] sheet, ..."})
     mass = Param(0.001, unit="kg", above=0.0, maximum=1e6, doc="mass of each cell (scales the component)")
@@ -109,7 +109,7 @@ def index_problem(shape, index):
 
 
 class Spring(Block, name="spring"):
-    """F = tension·(x_b − x_a) on cell a and −F on cell b.  Ref: seed 001 (joins)."""
+    """F = tension·(x_b − x_a) on cell a and −F on cell b.  Ref: Howard & Rimell 2003 (joins)."""
 
     a = Param("", doc="a cell: a cell block's name or lattice[i, j]")
     b = Param("", doc="the other cell")

@@ -1,4 +1,4 @@
-"""The reed excitation (seed 001, Cymatic's velocity-dependent "reed table").
+"""The reed excitation (Howard & Rimell 2003, Cymatic's velocity-dependent "reed table").
 
 A pressure-controlled valve on one cell. The mouth pressure p pushes on the cell through the
 reed; the cell's own motion builds a back-pressure Z·v (Z an acoustic impedance), so the pressure
@@ -18,7 +18,7 @@ from .core import Block, In, Out, Param
 
 
 class Reed(Block, name="reed"):
-    """Δp = pressure − impedance·v, force = area·Δp·clip(offset + slope·Δp, −1, 1).  Ref: STK ReedTable (Smith 1986); seed 001 (reed table)."""
+    """Δp = pressure − impedance·v, force = area·Δp·clip(offset + slope·Δp, −1, 1).  Ref: STK ReedTable (Smith 1986); Howard & Rimell 2003 (reed table)."""
 
     pressure = In(doc="mouth (blowing) pressure [Pa]")
     v = In(doc="velocity of the cell the reed drives [m/s]")

@@ -48,7 +48,7 @@ class Delay(Block, name="delay"):
 
 
 class Lowpass(Block, name="lowpass"):
-    """out[n] = gain · Σᵢ coeffs[i] · in[n − i] (FIR; the default taps are linear phase, 1 sample of group delay).  Ref: seed 000 Fig. 4 H_lp."""
+    """out[n] = gain · Σᵢ coeffs[i] · in[n − i] (FIR; the default taps are linear phase, 1 sample of group delay).  Ref: Berdahl et al. 2009 Fig. 4 H_lp."""
 
     x = In(name="in")
     y = Out(name="out")

@@ -1,12 +1,24 @@
 """The block reference, generated from the block declarations (never from prose)."""
 from .graph.registry import Registry
 
+# the two papers the built-in blocks implement, as "Ref:" lines cite them (short form -> full)
+PAPERS = {
+    "Berdahl et al. 2009": "Edgar Berdahl, Günter Niemeyer and Julius O. Smith III, \"Using Haptic Devices "
+                           "to Interface Directly with Digital Waveguide-Based Musical Instruments\", "
+                           "Proceedings of the International Conference on New Interfaces for Musical "
+                           "Expression (NIME 2009), Pittsburgh, PA, USA, pp. 183–186.",
+    "Howard & Rimell 2003": "David M. Howard and Stuart M. Rimell, \"Cymatic: a Tactile Controlled Physical "
+                            "Modelling Instrument\", Proceedings of the 6th International Conference on "
+                            "Digital Audio Effects (DAFx-03), London, UK, 2003.",
+}
+
 HEADER = """# Block reference
 
 Generated from the block declarations by `hapticgraph blocks --markdown > docs/blocks.md`;
 a test keeps it current. Ports are `inputs -> outputs`; a live parameter (marked *live*) is also
-an input port. Units are SI.
-"""
+an input port. Units are SI. The "Ref:" of each equation cites:
+
+""" + "".join(f"- **{short}**: {full}\n" for short, full in PAPERS.items())
 
 
 def _range(p):
