@@ -96,6 +96,8 @@ def plot_render(result, probes, out, title="", window=None, spectrogram=None, wi
             with np.errstate(divide="ignore"):   # silent stretches have zero power
                 _, _, _, image = ax.specgram(signal, NFFT=nfft, Fs=rate, noverlap=nfft * 3 // 4,
                                              cmap="magma", scale="dB")
+            top = image.get_clim()[1]
+            image.set_clim(top - 100.0, top)      # 100 dB of range: silence would stretch it to −300
             fig.colorbar(image, ax=ax, pad=0.01, label="power [dB]")
         ax.set_ylabel(f"{spectrogram}\nfrequency [Hz]", fontsize=8)
         ax.set_xlabel("time [s]", fontsize=8)
