@@ -1,5 +1,6 @@
 """The command line: run writes a 32-bit float WAV and an .npz of probes; blocks, schema, check."""
 import json
+import pathlib
 
 import jsonschema
 import numpy as np
@@ -7,8 +8,9 @@ import pytest
 import yaml
 from scipy.io import wavfile
 
-from conftest import PATCHES
 from hapticgraph.cli import main
+
+PATCHES = sorted((pathlib.Path(__file__).resolve().parent.parent / "patches").glob("*.yaml"))
 
 
 def test_run_writes_float_wav_and_probes(patches_dir, tmp_path, capsys):

@@ -1,10 +1,13 @@
 """The Python API the README documents: load, check, render to arrays and the error classes to
 catch, all importable from `hapticgraph`."""
+import pathlib
+
 import numpy as np
 import pytest
 
 import hapticgraph
-from conftest import ROOT
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent    # not `from conftest`: tests/hostile has one too
 
 KS = ROOT / "patches" / "karplus_strong.yaml"
 

@@ -1,12 +1,13 @@
 """Fast start: `hapticgraph --help`, `check`, `graph` (and `import hapticgraph`) import neither numba,
 scipy nor sounddevice; they are imported when a kernel is compiled, a mode solved or a card opened.
 Each case runs in a fresh interpreter; the time it takes is measured in the report, never asserted."""
+import pathlib
 import subprocess
 import sys
 
 import pytest
 
-from conftest import ROOT
+ROOT = pathlib.Path(__file__).resolve().parent.parent    # not `from conftest`: tests/hostile has one too
 
 HEAVY = ("numba", "scipy", "sounddevice")
 

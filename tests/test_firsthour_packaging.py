@@ -1,11 +1,13 @@
 """`pip install .` installs what the design names; `.[dev]` holds what the tests import."""
 import ast
 import importlib.metadata
+import pathlib
 import re
 import sys
 import tomllib
 
-from conftest import ROOT
+ROOT = pathlib.Path(__file__).resolve().parent.parent    # not `from conftest`: tests/hostile has one too
+
 
 PROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
 

@@ -1,14 +1,16 @@
 """`hapticgraph modes PATCH [--count N] [--json] [--set ...]`: the command line of graph/modes.py."""
 import json
 import math
+import pathlib
 import subprocess
 import sys
 
 import pytest
 
-from conftest import ROOT
 from hapticgraph.cli import main
 from hapticgraph.graph.modes import modal_frequencies
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent    # not `from conftest`: tests/hostile has one too
 
 STRING = ROOT / "patches" / "cymatic_string.yaml"
 

@@ -10,6 +10,7 @@ exit 1 or 2 with one line on standard error and no traceback.
 """
 import json
 import os
+import pathlib
 import re
 import shutil
 import subprocess
@@ -22,7 +23,8 @@ import soundfile
 import yaml
 
 from analysis import estimate_f0
-from conftest import ROOT
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent    # not `from conftest`: tests/hostile has one too
 
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.S | re.M)
