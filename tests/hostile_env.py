@@ -1,11 +1,9 @@
-"""Hostile-input tests: every attack runs in a child process under a memory and time limit, so a
+"""Shared by tests/hostile/: hostile-input tests: every attack runs in a child process under a memory and time limit, so a
 regression fails its test instead of taking the machine down."""
 import os
 import resource
 import subprocess
 import sys
-
-import pytest
 
 MEMORY_LIMIT_MB = 1536      # address space of the child; numba and LLVM fit in under 1 GB
 TIME_LIMIT_S = 60
@@ -43,7 +41,3 @@ def assert_patch_error(proc, fragment=None):
     if fragment is not None:
         assert fragment in proc.stderr, proc.stderr
 
-
-@pytest.fixture
-def hg():
-    return run_hg
