@@ -66,6 +66,6 @@ def test_broken_plugin_file_is_a_patch_error(tmp_path, capsys):
     (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins: [broken.py]\nblocks: {}\n")
     assert main(["check", str(tmp_path / "p.yaml")]) == 2
     err = capsys.readouterr().err
-    assert "p.yaml:2: plugin file 'broken.py' failed to import: RuntimeError: oops" in err
+    assert "p.yaml:2: plugin file 'broken.py' failed to import (broken.py:2): RuntimeError: oops" in err
     assert "Traceback" not in err
     assert math.isfinite(1.0)
