@@ -365,9 +365,12 @@ def _check_definition(cls):
         clash = set(coefs) & (set(internal) | set(RESERVED))
         if clash:
             fail(f"coefficient(s) {sorted(clash)} clash with other names")
+    scalars = ({d.attr for d in cls.inputs + cls.states + cls.externals} | set(RESERVED)
+               | {n for n, p in cls.params.items() if p.kind in ("number", "integer", "boolean")})
     for fname, expected, what in (("output", len(cls.outputs), "output"), ("update", len(cls.states), "state")):
         fn = cls.__dict__.get(fname)
-        problem = _return_count_problem(fn.__func__ if isinstance(fn, staticmethod) else fn, expected, what)
+        problem = _return_count_problem(fn.__func__ if isinstance(fn, staticmethod) else fn, expected, what,
+                                        scalars)
         if problem:
             fail(f"{fname}() {problem}")
     known = set(internal) | set(coefs) | set(RESERVED)
@@ -403,9 +406,11 @@ def _returns(fn):
     return found
 
 
-def _count(value):
+def _count(value, scalars=()):
     """How many values an expression returns when that can be seen (a literal tuple: its length;
-    a number or arithmetic: 1; nothing: 0), else None."""
+    a number, arithmetic or an argument known to be a number: 1; nothing: 0), else None."""
+    if isinstance(value, ast.Name) and value.id in scalars:
+        return 1
     if value is None or (isinstance(value, ast.Constant) and value.value is None):
         return 0
     if isinstance(value, ast.Tuple):
@@ -413,17 +418,27 @@ def _count(value):
     if isinstance(value, _SCALAR):
         return 1
     if isinstance(value, ast.IfExp):
-        a, b = _count(value.body), _count(value.orelse)
+        a, b = _count(value.body, scalars), _count(value.orelse, scalars)
         return a if a == b else (a if b is None else b if a is None else -1)
     return None
 
 
-def _return_count_problem(fn, expected, what):
+def _unassigned(fn, scalars):
+    """The scalar arguments fn never rebinds (so a bare `return x` of one is one value)."""
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    except (OSError, TypeError, SyntaxError):
+        return set()
+    stored = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, (ast.Store, ast.Del))}
+    return set(scalars) & set(_arguments(fn)) - stored
+
+
+def _return_count_problem(fn, expected, what, scalars=()):
     """Why fn's returns do not give `expected` values (one per output or state), or None."""
     if fn is None or expected == 0:
         return None
     for ret in _returns(fn) or ():
-        n = _count(ret.value)
+        n = _count(ret.value, _unassigned(fn, scalars))
         if n is None or n == expected:
             continue
         got = ("returns nothing" if n == 0 else "returns one value" if n == 1 else

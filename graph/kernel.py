@@ -111,8 +111,8 @@ def lit(v):
             return "math.inf" if v > 0 else "-math.inf"
         return repr(v)
     if isinstance(v, str):
-        # a plain word as is; anything else spelled character by character as escapes
-        return repr(v) if re.fullmatch(r"[A-Za-z0-9_]*", v) else '"' + "".join(f"\\U{ord(c):08x}" for c in v) + '"'
+        # spelled as code points, so no text of a patch is pasted into the source
+        return '"' + "".join(f"\\U{ord(c):08x}" for c in v) + '"'
 
     if isinstance(v, tuple):
         return "(" + "".join(lit(float(x)) + ", " for x in v) + ")"
@@ -193,7 +193,7 @@ def generate(prog: Program):
     buf_args = [f"b{i}" for i in range(len(prog.buffers))]
     arr_args = [f"a{i}" for i in range(len(prog.arrays))]
     e()
-    e("# compiled with numba.njit(nogil=True) by hapticgraph.graph.kernel (cached beside this file)")
+    e("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
     e(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
     e.indent()
     for bp in prog.plans:
@@ -579,7 +579,7 @@ def _compile(key, source, label, warm):
 class CompiledKernel:
     """The imported, jitted kernel of a program; `run(t0, rec)` fills rec (n × records)."""
 
-    def __init__(self, prog: Program, label=None):
+    def __init__(self, prog: Program, label=None, diagnose=True):
         import numpy as np
         start = time.perf_counter()
         self.prog = prog
@@ -601,8 +601,9 @@ class CompiledKernel:
             else:
                 warm(loaded[0])
         except Exception as exc:
-            if not _is_numba_error(exc):
+            if not diagnose or not _is_numba_error(exc):
                 raise
+            # name the plugin block at fault (compiled on its own), not numba's view of the kernel
             problems = plugin_problems(prog.patch) if hasattr(prog.patch, "registry") else None
             if problems:
                 raise PatchError(problems) from None
@@ -729,7 +730,7 @@ def plugin_problems(patch):
         except (PlanError, KeyError, ValueError):
             continue         # bound to a device or a network: only the whole patch can compile it
         try:
-            CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})")
+            CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})", diagnose=False)
         except KernelSourceError as exc:
             problems.append(Problem(file, inspect.getsourcelines(inst.cls)[1],
                                     f"block {inst.name!r} ({inst.cls.type_name}): {exc}"))
