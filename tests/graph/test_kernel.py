@@ -41,6 +41,7 @@ def test_dump_prints_the_kernel_path(patches_dir, tmp_path):
                            "--seconds", "0.01", "--out", str(tmp_path / "o.wav"), "--quiet"],
                           capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
+    assert "compiling" not in proc.stderr          # --quiet: no compile notice either
     line = [ln for ln in proc.stderr.splitlines() if "kernel for" in ln][0]
     path = line.split(" is ")[-1]
     assert path.startswith(str(tmp_path / "c")) and os.path.isfile(path)
