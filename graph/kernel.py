@@ -569,6 +569,11 @@ def _compile(key, source, label, warm):
                 shutil.rmtree(tmp, ignore_errors=True)
             _warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
             sys.modules.pop(name, None)
+        except BaseException:        # numba cannot compile it, or an interrupt: leave nothing behind
+            if tmp is not None:
+                shutil.rmtree(tmp, ignore_errors=True)
+            sys.modules.pop(name, None)
+            raise
     else:
         _say(f"compiling {label}…")
     fn = _dispatcher(_module(name, source, f"<hapticgraph kernel {key}>"), cached=False)
@@ -732,7 +737,11 @@ def plugin_problems(patch):
         try:
             CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})", diagnose=False)
         except KernelSourceError as exc:
-            problems.append(Problem(file, inspect.getsourcelines(inst.cls)[1],
+            try:
+                line = inspect.getsourcelines(inst.cls)[1]
+            except (OSError, TypeError):
+                line = 1
+            problems.append(Problem(file, line,
                                     f"block {inst.name!r} ({inst.cls.type_name}): {exc}"))
         except Exception as exc:  # noqa: BLE001 - numba's errors have no one base class
             if not _is_numba_error(exc):

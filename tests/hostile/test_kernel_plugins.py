@@ -50,6 +50,8 @@ def test_uncompilable_plugin_fails_check_at_its_line(tmp_path):
     assert_patch_error(run, "bad.py:13: block 'shape' (bad): numba cannot compile output(): ")
     assert "mic" not in run.stderr and "During:" not in run.stderr and len(run.stderr) < 1000, run.stderr
     assert not (tmp_path / "o.wav").exists()
+    # a failed compile leaves no half-built entry behind
+    assert not [p.name for p in (tmp_path / "cache").iterdir() if p.name.startswith(".kernel_")]
 
 
 def test_check_lists_the_plugin_files_it_runs(tmp_path):
