@@ -365,6 +365,14 @@ def _check_definition(cls):
         clash = set(coefs) & (set(internal) | set(RESERVED))
         if clash:
             fail(f"coefficient(s) {sorted(clash)} clash with other names")
+    scalars = ({d.attr for d in cls.inputs + cls.states + cls.externals} | set(RESERVED)
+               | {n for n, p in cls.params.items() if p.kind in ("number", "integer", "boolean")})
+    for fname, expected, what in (("output", len(cls.outputs), "output"), ("update", len(cls.states), "state")):
+        fn = cls.__dict__.get(fname)
+        problem = _return_count_problem(fn.__func__ if isinstance(fn, staticmethod) else fn, expected, what,
+                                        scalars)
+        if problem:
+            fail(f"{fname}() {problem}")
     known = set(internal) | set(coefs) | set(RESERVED)
     out_attrs = {o.attr for o in cls.outputs}
     for fname in ("output", "update"):
@@ -375,6 +383,70 @@ def _check_definition(cls):
             allowed = known - out_attrs if fname == "output" else known
             if a not in allowed:
                 fail(f"{fname}() argument {a!r} is not a port, parameter, state, buffer or coefficient")
+
+
+_SCALAR = (ast.Constant, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare)
+
+
+def _returns(fn):
+    """The `return` statements of fn itself (not of functions nested in it), or None."""
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    except (OSError, TypeError, SyntaxError):
+        return None
+    if not tree.body or not isinstance(tree.body[0], (ast.FunctionDef, ast.AsyncFunctionDef)):
+        return None
+    found, todo = [], list(tree.body[0].body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, ast.Return):
+            found.append(node)
+        elif not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef)):
+            todo.extend(ast.iter_child_nodes(node))
+    return found
+
+
+def _count(value, scalars=()):
+    """How many values an expression returns when that can be seen (a literal tuple: its length;
+    a number, arithmetic or an argument known to be a number: 1; nothing: 0), else None."""
+    if isinstance(value, ast.Name) and value.id in scalars:
+        return 1
+    if value is None or (isinstance(value, ast.Constant) and value.value is None):
+        return 0
+    if isinstance(value, ast.Tuple):
+        return None if any(isinstance(e, ast.Starred) for e in value.elts) else len(value.elts)
+    if isinstance(value, _SCALAR):
+        return 1
+    if isinstance(value, ast.IfExp):
+        a, b = _count(value.body, scalars), _count(value.orelse, scalars)
+        return a if a == b else (a if b is None else b if a is None else -1)
+    return None
+
+
+def _unassigned(fn, scalars):
+    """The scalar arguments fn never rebinds (so a bare `return x` of one is one value)."""
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    except (OSError, TypeError, SyntaxError):
+        return set()
+    stored = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, (ast.Store, ast.Del))}
+    return set(scalars) & set(_arguments(fn)) - stored
+
+
+def _return_count_problem(fn, expected, what, scalars=()):
+    """Why fn's returns do not give `expected` values (one per output or state), or None."""
+    if fn is None or expected == 0:
+        return None
+    for ret in _returns(fn) or ():
+        n = _count(ret.value, _unassigned(fn, scalars))
+        if n is None or n == expected:
+            continue
+        got = ("returns nothing" if n == 0 else "returns one value" if n == 1 else
+               "returns values of different counts" if n < 0 else f"returns {n} values")
+        line = fn.__code__.co_firstlineno + ret.lineno - 1
+        return (f"{got} (line {line}) but the block declares {expected} {what}{'s' if expected != 1 else ''}: "
+                f"return {'one value' if expected == 1 else 'a tuple of ' + str(expected)}")
+    return None
 
 
 _HELPERS = []   # @helper functions not yet registered with numba

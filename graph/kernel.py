@@ -5,35 +5,84 @@ The generated `kernel(n, t0, state, live, coef, rec, ext, <buffers>, <arrays>)` 
 and live parameters are loaded into locals before the sample loop and stored back after it; in
 the loop every block's `output` then every `update` runs in schedule order, static values are
 literals, buffers are power-of-two rings indexed through the shared counter `t`.
+
+The source holds no text from a patch: only identifiers the compiler makes (slot numbers), names
+of Python modules, classes and functions (each matched whole as an identifier), numbers it
+formats, and comments reduced to [A-Za-z0-9_]. A file name or block name cannot become code.
+
+The cache is verified, never trusted: each kernel has its own folder `kernel_<key>/` holding
+`kernel.py`, numba's `__pycache__/` and `manifest.json` (the SHA-256 of every other file),
+written after a successful compile. An entry is used only when `kernel.py` is byte for byte the
+source just generated and every file matches the manifest (no file missing, none extra);
+otherwise it is deleted and rebuilt. The key hashes the source, the numba, llvmlite, numpy and
+Python versions, the CPU, every module that defines a function the kernel calls and every
+plugin file the patch loaded.
 """
 import hashlib
-import importlib.util
 import inspect
+import json
 import math
 import os
+import platform
+import re
+import shutil
 import sys
+import tempfile
 import time
+import types
 
 from ..blocks.core import register_helpers
-from .program import Program
+from .errors import PatchError, Problem
+from .program import PlanError, Program
 
+# Set by the command line (unless --quiet) to a callable taking one line of text: told when a
+# kernel is compiled rather than loaded from the cache. Library code prints nothing by default.
+notice = None
+
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_DOTTED = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
 _jitted = {}
+_loaded = {}            # (cache folder, key) -> (dispatcher, path): kernels this process compiled or loaded
+_warned = []            # the one "cache not usable" warning, given at most once per process
+MANIFEST = "manifest.json"
 
 
-def jit(fn, cache=True):
+class KernelSourceError(TypeError):
+    """A name that would reach the generated source is not a plain identifier."""
+
+
+def ident(name, what):
+    """`name` if it is an ASCII identifier matched whole, else KernelSourceError."""
+    if not isinstance(name, str) or not _IDENT.fullmatch(name):
+        raise KernelSourceError(f"{what} {name!r} is not a plain identifier; it cannot be compiled")
+    return name
+
+
+def dotted(name, what):
+    if not isinstance(name, str) or not _DOTTED.fullmatch(name):
+        raise KernelSourceError(f"{what} {name!r} is not a dotted identifier; it cannot be compiled")
+    return name
+
+
+def note(text, limit=60):
+    """Text for a comment of the kernel: every character outside [A-Za-z0-9_] becomes `_`."""
+    return "".join(c if c.isascii() and (c.isalnum() or c == "_") else "_" for c in str(text)[:limit])
+
+
+def jit(fn):
     """The numba dispatcher of a block function, made once per process.
 
-    A per-sample `derive` is compiled with cache=False: its argument is a namedtuple type defined
-    in one kernel module, and numba's on-disk index would point other processes at that module.
     inline="always" makes numba splice the function into the kernel's IR instead of compiling
     and linking a module of its own: the code is the same (LLVM inlined the calls anyway), a
-    cold compile takes about half as long.
+    cold compile takes about half as long. Block functions are not cached on their own: inlined,
+    they are never compiled on their own, and a cache file beside a block's module (in
+    site-packages or a plugin's folder) would be one nothing verifies.
     """
-    d = _jitted.get((fn, cache))
+    d = _jitted.get(fn)
     if d is None:
         import numba
         register_helpers()
-        d = _jitted[(fn, cache)] = numba.njit(fn, cache=cache, inline="always")
+        d = _jitted[fn] = numba.njit(fn, cache=False, inline="always")
     return d
 
 
@@ -64,7 +113,9 @@ def lit(v):
             return "math.inf" if v > 0 else "-math.inf"
         return repr(v)
     if isinstance(v, str):
-        return repr(v)
+        # spelled as code points, so no text of a patch is pasted into the source
+        return '"' + "".join(f"\\U{ord(c):08x}" for c in v) + '"'
+
     if isinstance(v, tuple):
         return "(" + "".join(lit(float(x)) + ", " for x in v) + ")"
     raise TypeError(f"no literal for {v!r}")
@@ -90,7 +141,7 @@ class Emitter:
 
 
 def out_var(bp, attr):
-    return f"o{bp.index}_{attr}"
+    return f"o{int(bp.index)}_{ident(attr, 'output attribute')}"
 
 
 def state_var(prog, slot):
@@ -98,11 +149,15 @@ def state_var(prog, slot):
 
 
 def generate(prog: Program):
-    """The kernel module's source for a program."""
+    """The kernel module's source for a program, and the Python functions it calls.
+
+    Nothing from the patch reaches the source as text: blocks are numbered, comments carry names
+    reduced to [A-Za-z0-9_], and module, class, function and parameter names (which come from
+    Python, not from the patch) are matched whole as identifiers.
+    """
     e = Emitter()
-    e(f"# hapticgraph kernel for patch {prog.patch.name!r} ({os.path.basename(prog.patch.file)}),"
-      f" generated; do not edit.")
-    e("# schedule: " + " -> ".join(bp.name for bp in prog.plans))
+    e(f"# hapticgraph kernel for patch {note(prog.patch.name)}, generated; do not edit.")
+    e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
     e("import collections")
     e("import math")
     e("import numba")
@@ -112,18 +167,21 @@ def generate(prog: Program):
     for bp in prog.plans:
         cls = bp.cls
         if cls not in classes:
-            alias = f"{cls.type_name}_type"
+            tname = ident(cls.type_name, "block type name")
+            alias = f"{tname}_type"
             classes[cls] = alias
             module, qual = cls.__module__, cls.__qualname__
             if "<locals>" in qual:
-                raise TypeError(f"block type {cls.type_name!r} must be defined at module level to be compiled")
+                raise KernelSourceError(f"block type {tname!r} must be defined at module level to be compiled")
+            dotted(module, f"module of block type {tname!r}")
+            dotted(qual, f"class name of block type {tname!r}")
             e(f"from {module} import {qual.split('.')[0]} as {alias}" if "." not in qual else
               f"import {module} as {alias}_module")
             if "." in qual:
                 e(f"{alias} = {alias}_module.{qual}")
             for which in ("derive", "output", "update"):
                 if getattr(cls, which) is not None and (which != "derive" or _needs_derive(prog, cls)):
-                    e(f"{cls.type_name}_{which} = jit({alias}.{which}{', cache=False' if which == 'derive' else ''})")
+                    e(f"{tname}_{which} = jit({alias}.{which})")
                     fns.append(getattr(cls, which))
     if prog.networks:
         from ..blocks import lattice
@@ -131,65 +189,68 @@ def generate(prog: Program):
         fns.append(lattice.network_step)
     for bp in prog.plans:
         if bp.coef_mode == "per_sample":
-            e(f"P{bp.index} = collections.namedtuple('P{bp.index}', {list(bp.cls.params)!r})")
+            fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
+            e(f"P{bp.index} = collections.namedtuple('P{bp.index}', [{fields}])")
     e()
     buf_args = [f"b{i}" for i in range(len(prog.buffers))]
     arr_args = [f"a{i}" for i in range(len(prog.arrays))]
     e()
-    e("@numba.njit(cache=True, nogil=True)")
+    e("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
     e(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
     e.indent()
     for bp in prog.plans:
         for slot in bp.states:
-            e(f"s{slot} = state[{slot}]")
+            e(f"s{slot} = state[{int(slot)}]")
     for bp in prog.plans:
         for name, slot in bp.live.items():
-            e(f"l{slot} = live[{slot}]  # {bp.name}.{name}")
+            e(f"l{slot} = live[{int(slot)}]  # {note(bp.name, 30)}.{note(name, 30)}")
         for name, slot in bp.coef_slots.items():
             kind = "int" if isinstance(bp.coefs[name], int) and not isinstance(bp.coefs[name], bool) else (
                 "bool" if isinstance(bp.coefs[name], bool) else "float")
             cast = {"int": f"int(coef[{slot}])", "bool": f"coef[{slot}] != 0.0", "float": f"coef[{slot}]"}[kind]
-            e(f"c{slot} = {cast}  # {bp.name}: {name}")
+            e(f"c{int(slot)} = {cast}  # {note(bp.name, 30)}: {note(name, 30)}")
     e("for i in range(n):")
     e.indent()
     e("t = t0 + i")
     for bp in prog.plans:
         if bp.cls.output is None and bp.coef_mode != "per_sample":
             continue
-        e(f"# {bp.name} ({bp.cls.type_name})")
+        tname = ident(bp.cls.type_name, "block type name")
+        e(f"# {note(bp.name, 30)} ({tname})")
         if bp.coef_mode == "per_sample":
             args = ", ".join(expr(prog, bp, b) for b in bp.derive_args.values())
-            e(f"d{bp.index} = {bp.cls.type_name}_derive(P{bp.index}({args}), {lit(prog.fs)})")
+            e(f"d{bp.index} = {tname}_derive(P{bp.index}({args}), {lit(prog.fs)})")
         if bp.cls.output is None:
             continue
-        call = f"{bp.cls.type_name}_output({', '.join(expr(prog, bp, b) for b in bp.output_args)})"
-        outs = [out_var(bp, o.attr) for o in bp.cls.outputs]
+        call = f"{tname}_output({', '.join(expr(prog, bp, b) for b in bp.output_args)})"
+        outs = [out_var(bp, ident(o.attr, "output attribute")) for o in bp.cls.outputs]
         e(f"{', '.join(outs)} = {call}")
     for k, (label, binding) in enumerate(prog.records):
-        e(f"rec[i, {k}] = {expr(prog, None, binding)}  # {label}")
+        e(f"rec[i, {k}] = {expr(prog, None, binding)}  # {note(label)}")
     for bp in prog.plans:
         if bp.cls.update is None:
             continue
-        call = f"{bp.cls.type_name}_update({', '.join(expr(prog, bp, b) for b in bp.update_args)})"
+        call = f"{ident(bp.cls.type_name, 'block type name')}_update(" \
+               f"{', '.join(expr(prog, bp, b) for b in bp.update_args)})"
         if bp.states:
-            e(f"{', '.join(f's{slot}' for slot in bp.states)} = {call}  # {bp.name}")
+            e(f"{', '.join(f's{int(slot)}' for slot in bp.states)} = {call}  # {note(bp.name, 30)}")
         else:
-            e(f"{call}  # {bp.name}")
+            e(f"{call}  # {note(bp.name, 30)}")
     for net in prog.networks:
-        e(f"# mass-spring network: {', '.join(net.net.names)} ({net.net.n} cells)")
-        frc = net.slots["frc"]
+        e(f"# mass-spring network: {note(', '.join(net.net.names))} ({int(net.net.n)} cells)")
+        frc = int(net.slots["frc"])
         for flat, sources in net.forces.items():
-            e(f"a{frc}[{flat}] += {expr(prog, None, ('sum', tuple(sources)))}")
+            e(f"a{frc}[{int(flat)}] += {expr(prog, None, ('sum', tuple(sources)))}")
         if net.net.stencil is None:
             for comp, col, b, inv in net.scales:
                 value = expr(prog, prog.by_name[net.net.components[comp].name], b)
-                e(f"a{net.slots['scale']}[{comp}, {col}] = {'1.0 / ' + value if inv else value}")
+                e(f"a{int(net.slots['scale'])}[{int(comp)}, {int(col)}] = {'1.0 / ' + value if inv else value}")
         name, args = net.step_call()
-        e(f"{name}({', '.join(expr(prog, None, a) for a in args)})")
+        e(f"{ident(name, 'network step')}({', '.join(expr(prog, None, a) for a in args)})")
     e.dedent()
     for bp in prog.plans:
         for slot in bp.states:
-            e(f"state[{slot}] = s{slot}")
+            e(f"state[{int(slot)}] = s{int(slot)}")
     e("return 0")
     e.dedent()
     return e.source(), fns
@@ -207,7 +268,7 @@ def expr(prog, bp, b):
     if kind == "value":
         return lit(b[1])
     if kind == "sum":
-        terms = [f"a{src[1]}[{src[2]}]" if src[0] == "@" else f"ext[i, {src[1]}]" if src[0] == "#"
+        terms = [f"a{int(src[1])}[{int(src[2])}]" if src[0] == "@" else f"ext[i, {int(src[1])}]" if src[0] == "#"
                  else out_var(prog.by_name[src[0]], src[1]) for src in b[1]]
         return " + ".join(terms) if terms else "0.0"
     if kind == "inv":
@@ -215,80 +276,480 @@ def expr(prog, bp, b):
     if kind == "out":
         return out_var(prog.by_name[b[1]], b[2])
     if kind == "live":
-        return f"l{b[1]}"
+        return f"l{int(b[1])}"
     if kind == "coef":
-        return f"c{b[1]}"
+        return f"c{int(b[1])}"
     if kind == "dcoef":
-        return f"d{bp.index}[{b[1]!r}]"
+        return f"d{int(bp.index)}['{ident(b[1], 'coefficient name')}']"
     if kind == "state":
-        return f"s{b[1]}"
+        return f"s{int(b[1])}"
     if kind == "buffer":
-        return f"b{b[1]}"
+        return f"b{int(b[1])}"
     if kind == "array":
-        return f"a{b[1]}"
+        return f"a{int(b[1])}"
     if kind == "mask":
-        return str(b[1])
+        return str(int(b[1]))
     if kind == "ext":
-        return f"ext[i, {b[1]}]"
+        return f"ext[i, {int(b[1])}]"
     if kind == "own":
         return out_var(bp, b[1])
     raise ValueError(f"unknown binding {b!r}")
 
 
-def _fingerprint(fns):
-    """Hash of the modules that define the block functions a kernel calls (helpers included)."""
+
+
+# -- the cache key: everything the machine code depends on --------------------------------------
+
+_SKIP_TOP = {"numpy", "numba", "llvmlite", "builtins"} | set(getattr(sys, "stdlib_module_names", ()))
+_host = []
+
+
+def _host_id():
+    """Versions and the CPU the machine code is made for (numba's cache is per CPU)."""
+    if not _host:
+        import llvmlite
+        import numba
+        import numpy
+        from llvmlite import binding
+        cpu = f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}"
+        _host.append("\0".join([numba.__version__, llvmlite.__version__, numpy.__version__, sys.version,
+                                sys.implementation.cache_tag or "", platform.machine(), cpu,
+                                str(numba.config.CPU_NAME), str(numba.config.CPU_FEATURES)]))
+    return _host[0]
+
+
+def _codes(code):
+    yield code
+    for c in code.co_consts:
+        if inspect.iscode(c):
+            yield from _codes(c)
+
+
+def _reachable_files(fns):
+    """Source files of every function the kernel calls and of every function (a @helper, a
+    dispatcher) those reach through their globals, outside the standard library and numpy/numba;
+    plus the bytecode of functions that have no file."""
+    files, seen, todo = set(), set(), list(fns)
+    anonymous = []
+    while todo:
+        fn = todo.pop()
+        fn = getattr(fn, "py_func", fn)          # a numba dispatcher: its Python function
+        if not inspect.isfunction(fn) or fn in seen:
+            continue
+        seen.add(fn)
+        top = (fn.__module__ or "").split(".")[0]
+        if top in _SKIP_TOP:
+            continue
+        path = getattr(sys.modules.get(fn.__module__), "__file__", None)
+        if path:
+            files.add(os.path.realpath(path))
+        else:
+            anonymous.append(fn.__code__.co_code)
+        g = fn.__globals__
+        for code in _codes(fn.__code__):
+            for name in code.co_names:
+                value = g.get(name)
+                if inspect.ismodule(value):
+                    if value.__name__.split(".")[0] in _SKIP_TOP:
+                        continue
+                    todo += [getattr(value, attr, None) for attr in code.co_names]
+                elif value is not None:
+                    todo.append(value)
+    return files, anonymous
+
+
+def _file_digest(path):
     h = hashlib.sha256()
-    seen = set()
-    for fn in fns:
-        mod = sys.modules.get(fn.__module__)
-        path = getattr(mod, "__file__", None)
-        if path and path not in seen:
-            seen.add(path)
-            try:
-                with open(path, "rb") as f:
-                    h.update(f.read())
-            except OSError:
-                h.update(inspect.getsource(fn).encode())
-        elif not path:
-            h.update(fn.__code__.co_code)
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
     return h.hexdigest()
+
+
+def kernel_key(source, fns, prog):
+    """The hash that names a kernel's cache entry."""
+    h = hashlib.sha256()
+
+    def add(text):
+        h.update(str(text).encode("utf-8", "surrogatepass"))
+        h.update(b"\0")
+    add("hapticgraph kernel 2")
+    add(source)
+    add(_host_id())
+    files, anonymous = _reachable_files(list(fns) + [jit])
+    registry = getattr(prog.patch, "registry", None)
+    files |= {os.path.realpath(p) for p in getattr(registry, "plugin_files", ())}
+    for path in sorted(files):
+        add(path)
+        try:
+            add(_file_digest(path))
+        except OSError as exc:
+            add(f"unreadable: {exc}")
+    for code in anonymous:
+        add(hashlib.sha256(code).hexdigest())
+    return h.hexdigest()[:24]
+
+
+# -- the cache folder -------------------------------------------------------------------------
+
+def _say(text):
+    if notice is not None:
+        notice(text)
+
+
+def _warn_once(text):
+    if not _warned:
+        _warned.append(text)
+        print(f"hapticgraph: warning: {text}", file=sys.stderr, flush=True)
+
+
+def usable_cache_dir():
+    """The cache folder if it can hold kernels (a folder we own, writable, not world-writable);
+    else None after one warning: kernels are then compiled in memory."""
+    root = cache_dir()
+    try:
+        os.makedirs(root, mode=0o700, exist_ok=True)
+        st = os.stat(root)
+        if not os.path.isdir(root):
+            raise NotADirectoryError("not a folder")
+        if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+            raise PermissionError("owned by another user")
+        if hasattr(os, "geteuid") and st.st_mode & 0o002:
+            raise PermissionError("writable by every user")
+        tempfile.TemporaryFile(dir=root).close()
+    except OSError as exc:
+        reason = exc.strerror or str(exc) or type(exc).__name__
+        _warn_once(f"kernel cache {root!r} is not usable ({reason}); compiling in memory "
+                   "(set HAPTICGRAPH_CACHE to a folder of yours)")
+        return None
+    return root
+
+
+def _listing(folder):
+    """Every file under folder (relative paths with /), or None if a link or odd file is there."""
+    found = []
+    for top, dirs, names in os.walk(folder, followlinks=False):
+        for d in dirs:
+            if os.path.islink(os.path.join(top, d)):
+                return None
+        for n in names:
+            path = os.path.join(top, n)
+            if os.path.islink(path) or not os.path.isfile(path):
+                return None
+            found.append(os.path.relpath(path, folder).replace(os.sep, "/"))
+    return sorted(found)
+
+
+def verified(entry, source, key):
+    """True if the entry folder is exactly what a compile of this source wrote: kernel.py is the
+    source, and every file is listed in the manifest with its hash (none missing, none extra)."""
+    try:
+        if os.path.islink(entry) or not os.path.isdir(entry):
+            return False
+        with open(os.path.join(entry, MANIFEST), "rb") as f:
+            manifest = json.loads(f.read(1 << 20))
+        files = manifest.get("files") if isinstance(manifest, dict) else None
+        if manifest.get("key") != key or not isinstance(files, dict):
+            return False
+        listing = _listing(entry)
+        if listing is None or sorted(list(files) + [MANIFEST]) != listing or "kernel.py" not in files:
+            return False
+        with open(os.path.join(entry, "kernel.py"), "rb") as f:
+            if f.read() != source.encode("utf-8"):
+                return False
+        return all(isinstance(d, str) and _file_digest(os.path.join(entry, *rel.split("/"))) == d
+                   for rel, d in files.items())
+    except (OSError, ValueError, AttributeError, TypeError):
+        return False
+
+
+def _write_manifest(entry, key):
+    files = {rel: _file_digest(os.path.join(entry, *rel.split("/")))
+             for rel in (_listing(entry) or ()) if rel != MANIFEST}
+    tmp = os.path.join(entry, MANIFEST + ".tmp")
+    with open(tmp, "w", encoding="utf-8") as f:
+        json.dump({"key": key, "files": files}, f, indent=1, sort_keys=True)
+    os.replace(tmp, os.path.join(entry, MANIFEST))
+
+
+def _remove(path):
+    if os.path.islink(path) or os.path.isfile(path):
+        os.remove(path)
+    elif os.path.isdir(path):
+        shutil.rmtree(path)
+
+
+_cache_class = []
+
+
+def _pinned_cache(py_func):
+    """numba's function cache, kept in `__pycache__` beside the kernel file whatever
+    NUMBA_CACHE_DIR or numba's fallback locations say, so every file it reads is one we verify."""
+    if not _cache_class:
+        from numba.core import caching
+
+        class Locator(caching._SourceFileBackedLocatorMixin, caching._CacheLocator):
+            def __init__(self, py_func, py_file):
+                self._py_func, self._py_file = py_func, py_file
+                self._lineno = py_func.__code__.co_firstlineno
+
+            def get_cache_path(self):
+                return os.path.join(os.path.dirname(self._py_file), "__pycache__")
+
+        class Impl(caching.CompileResultCacheImpl):
+            def __init__(self, py_func):
+                self._lineno = py_func.__code__.co_firstlineno
+                self._locator = Locator(py_func, py_func.__code__.co_filename)
+                self._filename_base = self.get_filename_base(f"kernel.{py_func.__qualname__}",
+                                                             getattr(sys, "abiflags", ""))
+
+        class Cache(caching.FunctionCache):
+            _impl_class = Impl
+        _cache_class.append(Cache)
+    return _cache_class[0](py_func)
+
+
+def _module(name, source, filename):
+    """The kernel module, executed from the source in memory (no .pyc is written or read)."""
+    module = types.ModuleType(name)
+    module.__file__ = filename
+    sys.modules[name] = module   # numba re-imports it by name when it loads cached code
+    try:
+        exec(compile(source, filename, "exec"), module.__dict__)
+    except BaseException:
+        sys.modules.pop(name, None)
+        raise
+    return module
+
+
+def _dispatcher(module, cached):
+    import numba
+    fn = numba.njit(nogil=True)(module.kernel)
+    if cached:
+        fn._cache = _pinned_cache(module.kernel)
+    return fn
+
+
+def _compile(key, source, label, warm):
+    """(dispatcher, path of kernel.py or None): from a verified cache entry, else compiled (into a
+    fresh entry when the cache folder is usable, else in memory)."""
+    name = f"hapticgraph_kernel_{key}"
+    root = usable_cache_dir()
+    if root is not None:
+        entry = os.path.join(root, f"kernel_{key}")
+        path = os.path.join(entry, "kernel.py")
+        if verified(entry, source, key):
+            fn = _dispatcher(_module(name, source, path), cached=True)
+            warm(fn)
+            if fn.stats.cache_misses:      # numba compiled after all (and wrote its files): list them
+                try:
+                    _write_manifest(entry, key)
+                except OSError:
+                    pass
+            return fn, path
+        _say(f"compiling {label}…")
+        tmp = None
+        try:
+            tmp = tempfile.mkdtemp(prefix=f".kernel_{key}.", dir=root)
+            with open(os.path.join(tmp, "kernel.py"), "w", encoding="utf-8") as f:
+                f.write(source)
+            fn = _dispatcher(_module(name, source, os.path.join(tmp, "kernel.py")), cached=True)
+            warm(fn)
+            fn._cache.disable()      # its files move with the rename below; nothing more is written
+            _write_manifest(tmp, key)
+            try:
+                os.rename(tmp, entry)
+            except OSError:
+                if verified(entry, source, key):    # another process finished the same kernel first
+                    _remove(tmp)
+                else:
+                    _remove(entry)
+                    os.rename(tmp, entry)
+            return fn, path
+        except OSError as exc:
+            if tmp is not None:
+                shutil.rmtree(tmp, ignore_errors=True)
+            _warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
+            sys.modules.pop(name, None)
+        except BaseException:        # numba cannot compile it, or an interrupt: leave nothing behind
+            if tmp is not None:
+                shutil.rmtree(tmp, ignore_errors=True)
+            sys.modules.pop(name, None)
+            raise
+    else:
+        _say(f"compiling {label}…")
+    fn = _dispatcher(_module(name, source, f"<hapticgraph kernel {key}>"), cached=False)
+    warm(fn)
+    return fn, None
 
 
 class CompiledKernel:
     """The imported, jitted kernel of a program; `run(t0, rec)` fills rec (n × records)."""
 
-    def __init__(self, prog: Program):
-        import numba
+    def __init__(self, prog: Program, label=None, diagnose=True):
+        import numpy as np
         register_helpers()
         start = time.perf_counter()
         self.prog = prog
         source, fns = generate(prog)
-        key = hashlib.sha256((source + _fingerprint(fns) + numba.__version__).encode()).hexdigest()[:20]
-        folder = cache_dir()
-        os.makedirs(folder, exist_ok=True)
-        self.path = os.path.join(folder, f"kernel_{key}.py")
-        if not os.path.exists(self.path):
-            tmp = f"{self.path}.{os.getpid()}.tmp"
-            with open(tmp, "w", encoding="utf-8") as f:
-                f.write(source)
-            os.replace(tmp, self.path)
-        if os.environ.get("HAPTICGRAPH_DUMP") == "1":
-            print(f"hapticgraph: kernel for {prog.patch.name!r} is {self.path}", file=sys.stderr)
-        name = f"hapticgraph_kernel_{key}"
-        module = sys.modules.get(name)
-        if module is None:
-            spec = importlib.util.spec_from_file_location(name, self.path)
-            module = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(module)
-            sys.modules[name] = module
-        self.fn = module.kernel
         self.source = source
+        self.key = kernel_key(source, fns, prog)
         self.extra = tuple(prog.buffers) + tuple(prog.arrays)
-        # compile now (or load numba's cache), so the first block of audio is not late
-        import numpy as np
-        self.run(0, np.zeros((0, len(prog.records))), np.zeros((0, len(prog.ext_columns))))
+
+        def warm(fn):
+            # compile now (or load numba's cache), so the first block of audio is not late
+            fn(0, 0, prog.state, prog.live, prog.coef, np.zeros((0, len(prog.records))),
+               np.zeros((0, len(prog.ext_columns))), *self.extra)
+        label = label or f"kernel for {len(prog.plans)} block{'s' if len(prog.plans) != 1 else ''}"
+        where = (cache_dir(), self.key)
+        loaded = _loaded.get(where)
+        try:
+            if loaded is None:
+                loaded = _loaded[where] = _compile(self.key, source, label, warm)
+            else:
+                warm(loaded[0])
+        except Exception as exc:
+            if not diagnose or not _is_numba_error(exc):
+                raise
+            # name the plugin block at fault (compiled on its own), not numba's view of the kernel
+            problems = plugin_problems(prog.patch) if hasattr(prog.patch, "registry") else None
+            if problems:
+                raise PatchError(problems) from None
+            raise
+        self.fn, self.path = loaded
+        if os.environ.get("HAPTICGRAPH_DUMP") == "1":
+            where = self.path or "compiled in memory (no usable cache folder)"
+            print(f"hapticgraph: kernel for {note(prog.patch.name)} is {where}", file=sys.stderr)
         self.compile_seconds = time.perf_counter() - start
 
     def run(self, t0, rec, ext):
         p = self.prog
         self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, ext, *self.extra)
+
+
+# -- plugin blocks, each compiled on its own --------------------------------------------------
+
+def _is_numba_error(exc):
+    try:
+        from numba.core.errors import NumbaError
+    except ImportError:
+        return False
+    return isinstance(exc, NumbaError)
+
+
+def _reason(exc, limit=2):
+    """numba's reason in at most `limit` short lines (its headers, source excerpts and
+    'During: ...' context dropped)."""
+    lines = []
+    for raw in re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).splitlines():
+        line = raw.strip()
+        if not line or line.startswith(("Failed in ", "File \"", "During:", "- Resolution", "^",
+                                         "This error may have", "Enable logging")):
+            if lines and line.startswith(("File \"", "During:")):
+                break
+            continue
+        if line.startswith(("No implementation of function", "Invalid use of")) and lines:
+            continue
+        lines.append(line[:160])
+        if len(lines) >= limit:
+            break
+    return " ".join(lines) or type(exc).__name__
+
+
+def _culprit(cls, exc):
+    """(function name, file, line) of the block function numba's message points into."""
+    text = str(exc)
+    candidates = []
+    for which in ("derive", "output", "update"):
+        fn = getattr(cls, which)
+        if fn is None:
+            continue
+        try:
+            lines, first = inspect.getsourcelines(fn)
+            path = inspect.getsourcefile(fn)
+        except (OSError, TypeError):
+            continue
+        candidates.append((which, path, first, first + len(lines) - 1))
+    hits = [(m.group(1), int(m.group(2))) for m in re.finditer(r'File "([^"]+)", line (\d+)', text)]
+    hits += [(m.group(1), int(m.group(2))) for m in re.finditer(r" at (\S+\.py) \((\d+)\)", text)]
+    for file, line in hits:
+        for which, path, lo, hi in candidates:
+            if lo <= line <= hi and os.path.basename(file) == os.path.basename(path):
+                return which, path, line
+    if candidates:
+        which, path, lo, _ = next((c for c in candidates if c[0] == "output"), candidates[0])
+        return which, path, lo
+    return "output", inspect.getsourcefile(cls) or "?", 1
+
+
+def _feeds():
+    from ..blocks import builtin_types
+    return builtin_types()["noise"]
+
+
+class _Isolated:
+    """A patch of one block (every connected input fed by a noise block), for its own compile."""
+
+    def __init__(self, patch, inst):
+        from .patch import Connection, Endpoint, Instance
+        noise = _feeds()
+        self.file, self.doc, self.name, self.rate = patch.file, patch.doc, f"check_{inst.cls.type_name}", patch.rate
+        self.devices, self.registry = patch.devices, patch.registry
+        self.blocks, self.connections, self.order = {}, [], []
+        fed = sorted({c.dst.port for c in patch.connections if c.dst.block == inst.name and c.dst.index is None})
+        for k, port in enumerate(fed):
+            feed = f"feed{k}"
+            values = noise.default_params()
+            values["seed"] = k + 1
+            self.blocks[feed] = Instance(feed, noise, values, inst.line, {}, -1 - k)
+            self.connections.append(Connection(Endpoint(feed, None, "out"), Endpoint(inst.name, None, port),
+                                               inst.line))
+            self.order.append(feed)
+        self.blocks[inst.name] = inst
+        self.order.append(inst.name)
+
+
+def plugin_blocks(patch):
+    """(instance, plugin file) of every block whose type a plugin defines."""
+    origin = patch.registry.origin
+    out = []
+    for inst in patch.blocks.values():
+        if origin.get(inst.cls.type_name, "built-in") == "built-in":
+            continue
+        out.append((inst, inspect.getsourcefile(inst.cls) or getattr(sys.modules.get(inst.cls.__module__),
+                                                                      "__file__", "?")))
+    return out
+
+
+def plugin_problems(patch):
+    """Compile every plugin block of the patch on its own, with the patch's parameter values.
+
+    A block that numba cannot compile is a Problem at its plugin's file and line:
+    `block 'NAME' (TYPE): numba cannot compile output(): <reason>`.
+    """
+    problems, done = [], set()
+    for inst, file in plugin_blocks(patch):
+        sig = (inst.cls, repr(sorted((k, repr(v)) for k, v in inst.values.items())))
+        if sig in done:
+            continue
+        done.add(sig)
+        try:
+            prog = Program(_Isolated(patch, inst))
+        except (PlanError, KeyError, ValueError):
+            continue         # bound to a device or a network: only the whole patch can compile it
+        try:
+            CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})", diagnose=False)
+        except KernelSourceError as exc:
+            try:
+                line = inspect.getsourcelines(inst.cls)[1]
+            except (OSError, TypeError):
+                line = 1
+            problems.append(Problem(file, line,
+                                    f"block {inst.name!r} ({inst.cls.type_name}): {exc}"))
+        except Exception as exc:  # noqa: BLE001 - numba's errors have no one base class
+            if not _is_numba_error(exc):
+                raise
+            which, path, line = _culprit(inst.cls, exc)
+            problems.append(Problem(path, line, f"block {inst.name!r} ({inst.cls.type_name}): numba cannot "
+                                                f"compile {which}(): {_reason(exc)}"))
+    return problems

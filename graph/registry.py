@@ -7,6 +7,7 @@ import importlib.util
 import inspect
 import os
 import sys
+import traceback
 
 from ..blocks import Block, builtin_types
 
@@ -34,13 +35,17 @@ class Registry:
     def __init__(self, entry_points=True):
         self.types = dict(builtin_types())
         self.origin = {name: "built-in" for name in self.types}
+        self.plugin_files = {}   # absolute path -> how the patch named it: the code a patch runs
         if entry_points:
             for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
                 try:
-                    self.add(block_types_in(ep.load()), f"entry point {ep.name} ({ep.value})")
-                except Exception as exc:  # noqa: BLE001 - a broken installed plugin must not hide the rest
-                    print(f"hapticgraph: warning: plugin entry point {ep.name!r} failed to load: {exc}",
-                          file=sys.stderr)
+                    module = ep.load()
+                    self.add(block_types_in(module), f"entry point {ep.name} ({ep.value})")
+                except KeyboardInterrupt:
+                    raise
+                except BaseException as exc:  # noqa: BLE001 - a broken (or exiting) plugin must not hide the rest
+                    print(f"hapticgraph: warning: plugin entry point {ep.name!r} failed to load: "
+                          f"{type(exc).__name__}: {exc}", file=sys.stderr)
 
     def add(self, types, origin):
         for cls in types:
@@ -64,29 +69,80 @@ class Registry:
                 module = importlib.import_module(spec)
             except ImportError as exc:
                 raise RegistryError(f"plugin module {spec!r} cannot be imported: {exc}") from None
+            except KeyboardInterrupt:
+                raise
+            except BaseException as exc:  # noqa: BLE001 - sys.exit() or any error in a plugin is the plugin's fault
+                raise RegistryError(f"plugin module {spec!r} failed to import{_where(exc, None)}: "
+                                    f"{_describe(exc)}") from None
         types = block_types_in(module)
         if not types:
             raise RegistryError(f"plugin {spec!r} defines no block types")
         self.add(types, f"plugin {spec!r}")
+        path = getattr(module, "__file__", None)
+        if path:
+            self.plugin_files[os.path.realpath(path)] = spec
         return types
 
 
+def _describe(exc):
+    if isinstance(exc, SystemExit):
+        return f"it called sys.exit({exc.code!r})"
+    return f"{type(exc).__name__}: {exc}"
+
+
+def _where(exc, path):
+    """` (FILE:LINE)`: the innermost frame of the plugin (of `path`, or any file but ours)."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    for frame in reversed(frames):
+        name = os.path.realpath(frame.filename)
+        if (path and name == path) or (not path and not name.startswith(here) and "importlib" not in name):
+            return f" ({os.path.basename(name)}:{frame.lineno})"
+    return ""
+
+
+def _digest(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
 def import_file(path):
-    """Import a plugin file under a stable module name, so generated kernels can import it too."""
+    """Import a plugin file under a stable module name, so generated kernels can import it too.
+
+    The name holds only [A-Za-z0-9_]. A file already imported is imported again when its content
+    changed (an edited plugin is never served stale, e.g. by `play --watch`).
+    """
     path = os.path.realpath(path)
     stem = os.path.splitext(os.path.basename(path))[0]
-    digest = hashlib.sha1(path.encode()).hexdigest()[:10]
-    name = f"hapticgraph_plugin_{''.join(c if c.isalnum() else '_' for c in stem)}_{digest}"
+    digest = hashlib.sha1(path.encode("utf-8", "surrogatepass")).hexdigest()[:10]
+    name = f"hapticgraph_plugin_{''.join(c if c.isascii() and c.isalnum() else '_' for c in stem)}_{digest}"
+    try:
+        content = _digest(path)
+    except OSError as exc:
+        raise RegistryError(f"plugin file {os.path.basename(path)!r} cannot be read: {exc.strerror or exc}") from None
     module = sys.modules.get(name)
-    if module is not None and getattr(module, "__file__", None) == path:
+    if (module is not None and getattr(module, "__file__", None) == path
+            and getattr(module, "__hapticgraph_digest__", None) == content):
         return module
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
+    module.__hapticgraph_digest__ = content
+    previous = sys.modules.get(name)
     sys.modules[name] = module
     try:
         spec.loader.exec_module(module)
-    except Exception as exc:
-        del sys.modules[name]
-        raise RegistryError(f"plugin file {os.path.basename(path)!r} failed to import: "
-                            f"{type(exc).__name__}: {exc}") from None
+    except KeyboardInterrupt:
+        _restore(name, previous)
+        raise
+    except BaseException as exc:  # noqa: BLE001 - sys.exit() or any error in a plugin is the plugin's fault
+        _restore(name, previous)
+        raise RegistryError(f"plugin file {os.path.basename(path)!r} failed to import{_where(exc, path)}: "
+                            f"{_describe(exc)}") from None
     return module
+
+
+def _restore(name, previous):
+    if previous is None:
+        sys.modules.pop(name, None)
+    else:
+        sys.modules[name] = previous

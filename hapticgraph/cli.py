@@ -222,8 +222,22 @@ def _cmd_blocks(args):
 
 def _cmd_check(args):
     patch = load(args.patch, overrides=args.overrides)
+    origin = patch.registry.origin
+    plugins = set(patch.registry.plugin_files)          # every file a `plugins:` entry imported
+    plugins |= {os.path.realpath(sys.modules[inst.cls.__module__].__file__) for inst in patch.blocks.values()
+                if origin.get(inst.cls.type_name) != "built-in"
+                and getattr(sys.modules.get(inst.cls.__module__), "__file__", None)}  # installed plugins used
+    if any(origin.get(inst.cls.type_name) != "built-in" for inst in patch.blocks.values()):
+        # plugins are the only code a patch runs: each plugin block is compiled on its own here, so
+        # a body numba cannot compile fails `check` at the plugin's line, not `run` in another block
+        from .graph.kernel import plugin_problems
+        problems = plugin_problems(patch)
+        if problems:
+            raise PatchError(problems)
     print(f"{args.patch}: ok: {len(patch.blocks)} blocks, {len(patch.connections)} connections at "
           f"{patch.rate:g} Hz; schedule: {' -> '.join(patch.order)}")
+    for path in sorted(plugins):
+        print(f"  plugins run: {os.path.basename(path)} ({path})")
     return 0
 
 
@@ -533,9 +547,17 @@ def _cmd_graph(args):
     return 0
 
 
+def _compile_notice(text):
+    print(f"hapticgraph: {text}", file=sys.stderr, flush=True)
+
+
 def main(argv=None):
     args = _parser().parse_args(argv)
     _import_engine()
+    told = args.command in ("run", "play", "plot", "check") and not getattr(args, "quiet", False)
+    if told:
+        from .graph import kernel
+        kernel.notice = _compile_notice     # a cold compile says so at once; a cache hit says nothing
     try:
         if args.command == "schema":
             print(json.dumps(patch_schema(Registry()), indent=2))
@@ -561,3 +583,6 @@ def main(argv=None):
             raise
         print(f"hapticgraph: error: {type(exc).__name__}: {exc}", file=sys.stderr)
         return 1
+    finally:
+        if told:
+            kernel.notice = None

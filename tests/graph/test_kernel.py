@@ -14,13 +14,13 @@ def test_kernel_is_readable_and_cached(patches_dir, tmp_path, monkeypatch):
     monkeypatch.setenv("HAPTICGRAPH_CACHE", str(tmp_path / "cache"))
     prog = Program(load(patches_dir / "karplus_strong.yaml"))
     k1 = CompiledKernel(prog)
-    assert os.path.dirname(k1.path) == str(tmp_path / "cache")
+    assert os.path.dirname(os.path.dirname(k1.path)) == str(tmp_path / "cache")
     src = open(k1.path).read()
     # one sample loop; every output then every update in schedule order; literals baked in
     assert src.count("for i in range(n):") == 1
     assert src.index("delay_output(") < src.index("lowpass_output(") < src.index("delay_update(")
     assert "(0.25, 0.5, 0.25, )" in src and "t = t0 + i" in src
-    assert "@numba.njit(cache=True, nogil=True)" in src
+    assert "def kernel(n, t0, state, live, coef, rec, ext" in src and src == k1.source
     k2 = CompiledKernel(Program(load(patches_dir / "karplus_strong.yaml")))
     assert k2.path == k1.path
     # another parameter value is another source, so another file
@@ -41,6 +41,7 @@ def test_dump_prints_the_kernel_path(patches_dir, tmp_path):
                            "--seconds", "0.01", "--out", str(tmp_path / "o.wav"), "--quiet"],
                           capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
+    assert "compiling" not in proc.stderr          # --quiet: no compile notice either
     line = [ln for ln in proc.stderr.splitlines() if "kernel for" in ln][0]
     path = line.split(" is ")[-1]
     assert path.startswith(str(tmp_path / "c")) and os.path.isfile(path)
@@ -106,3 +107,50 @@ def test_control_rate_rederive_updates_scalar_and_array_coefficients(tmp_path):
         prog.set_param("c", "level", 2.0)      # derive reads a live parameter: coefficients re-derived
         runner.run(4, rec, np.zeros((4, 0)))
         assert np.all(rec[:, 0] == 13.0), engine
+
+
+def _strings(node):
+    """Every string a YAML document holds, keys included."""
+    if isinstance(node, str):
+        yield node
+    elif isinstance(node, dict):
+        for k, v in node.items():
+            yield from _strings(k)
+            yield from _strings(v)
+    elif isinstance(node, (list, tuple)):
+        for v in node:
+            yield from _strings(v)
+
+
+def test_generated_source_holds_no_patch_supplied_string(patches_dir, tmp_path):
+    """Code lines hold no string of the patch (names, devices, choices, the file name); comments
+    hold names reduced to [A-Za-z0-9_] only."""
+    import re
+    import shutil
+    import yaml
+    text = (patches_dir / "fig8_pluck_damp.yaml").read_text()
+    marked = text
+    for name in ("finger", "tip", "pad", "string_x"):
+        marked = re.sub(rf"\b{name}\b", f"zq{name}", marked)
+    marked = re.sub(r"(?m)^name:.*$", "", marked).replace(
+        "hapticgraph: 1", "hapticgraph: 1\nname: \"zq a patch's 'name'\\n#\"", 1)
+    path = tmp_path / "zq fig8 (copy).yaml"
+    path.write_text(marked)
+    patch = load(path)
+    from hapticgraph.devices import open_drivers
+    first = sorted(patch.blocks)[0]
+    prog = Program(patch, probes=[f"{first}.{patch.blocks[first].outputs[0].name}"], drivers=open_drivers(patch, {}))
+    source, _ = generate(prog)
+    code = "\n".join(line.split("#", 1)[0] for line in source.splitlines())
+    comments = [line.split("#", 1)[1] for line in source.splitlines() if "#" in line]
+    assert "zq" not in code
+    supplied = set(_strings(yaml.safe_load(marked))) | {path.name, patch.name}
+    for s in supplied:
+        if len(s) >= 3 and not re.fullmatch(r"[A-Za-z0-9_.]*", s):
+            assert s not in source, s
+    for s in supplied:                      # choices such as `exponential` reach no code line as text
+        if len(s) >= 5 and re.fullmatch(r"[a-z_]+", s) and s not in ("fixed",):
+            assert f"'{s}'" not in code and f'"{s}"' not in code, s
+    assert [c for c in comments if not re.fullmatch(r"[ A-Za-z0-9_:;,.()>\-]*", c)] == []
+    assert any("zqfinger" in c or "zqtip" in c for c in comments)
+    shutil.rmtree(tmp_path, ignore_errors=True)

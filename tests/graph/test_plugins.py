@@ -66,6 +66,50 @@ def test_broken_plugin_file_is_a_patch_error(tmp_path, capsys):
     (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins: [broken.py]\nblocks: {}\n")
     assert main(["check", str(tmp_path / "p.yaml")]) == 2
     err = capsys.readouterr().err
-    assert "p.yaml:2: plugin file 'broken.py' failed to import: RuntimeError: oops" in err
+    assert "p.yaml:2: plugin file 'broken.py' failed to import (broken.py:2): RuntimeError: oops" in err
     assert "Traceback" not in err
     assert math.isfinite(1.0)
+
+
+LEVEL = '''from hapticgraph.blocks import Block, Out
+
+
+class Level(Block, name="level_test"):
+    """out = {value}."""
+    y = Out(name="out")
+
+    @staticmethod
+    def output():
+        return {value}
+'''
+
+
+def test_edited_plugin_is_reloaded_in_the_same_process(tmp_path):
+    """`play --watch` loads the patch again in the same process: an edited plugin file is imported
+    again and its kernel is a new one (the cache key holds the plugin's content)."""
+    (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins: [level.py]\nblocks:\n  l: {type: level_test}\n")
+    seen, keys = [], []
+    for value in ("0.25", "0.75"):
+        (tmp_path / "level.py").write_text(LEVEL.format(value=value))
+        patch = load(tmp_path / "p.yaml")
+        assert str((tmp_path / "level.py").resolve()) in patch.registry.plugin_files
+        kernel = CompiledKernel(Program(patch, probes=["l.out"]))
+        rec = np.zeros((3, 1))
+        kernel.run(0, rec, np.zeros((3, 0)))
+        seen.append(rec[0, 0])
+        keys.append(kernel.key)
+    assert seen == [0.25, 0.75] and keys[0] != keys[1]
+
+
+def test_entry_point_that_exits_is_a_warning_not_an_exit(tmp_path, monkeypatch, capsys):
+    site = tmp_path / "site"
+    (site / "leaver_pkg").mkdir(parents=True)
+    (site / "leaver_pkg" / "__init__.py").write_text("import sys\nsys.exit(0)\n")
+    info = site / "leaver-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: leaver\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[hapticgraph.blocks]\nleaver = leaver_pkg\n")
+    monkeypatch.syspath_prepend(str(site))
+    registry = Registry()
+    assert "gain" in registry.types
+    assert "plugin entry point 'leaver' failed to load: SystemExit: 0" in capsys.readouterr().err
