@@ -37,7 +37,7 @@ def _heavy_after(code, cwd):
     ["check", "patches/karplus_strong.yaml"],
     ["check", "patches/fig8_pluck_damp.yaml"],            # devices (a simulated finger) and couplings
     ["check", "patches/babe_is_sleeping.yaml"],           # lattices and springs
-    ["check", "examples/file_plugin/saturated_string.yaml"],   # a plugin file with @helper functions
+    ["graph", "examples/file_plugin/saturated_string.yaml"],   # a plugin file with @helper functions
     ["graph", "patches/fig8_pluck_damp.yaml", "--format", "mermaid"],
     ["graph", "patches/babe_is_sleeping.yaml"],
 ], ids=lambda a: " ".join(a))
@@ -45,6 +45,15 @@ def test_command_imports_no_heavy_module(args):
     status, heavy = _heavy_after(PROBE.format(args=args, heavy=HEAVY), cwd=ROOT)
     assert status == "0"
     assert heavy == [], f"hapticgraph {' '.join(args)} imported {heavy}"
+
+
+def test_check_of_a_plugin_patch_compiles_the_plugin_and_nothing_more():
+    # check compiles every plugin block (so a broken plugin fails check): numba (which brings scipy
+    # along), never the sound card's library
+    status, heavy = _heavy_after(PROBE.format(args=["check", "examples/file_plugin/saturated_string.yaml"],
+                                              heavy=HEAVY), cwd=ROOT)
+    assert status == "0"
+    assert "numba" in heavy and "sounddevice" not in heavy
 
 
 def test_import_hapticgraph_and_its_api_names_is_light():
