@@ -52,10 +52,10 @@ class Endpoint:
         """Why `text` is not an endpoint: a sentence, or None if it is one."""
         m = _ENDPOINT.fullmatch(text)
         if m is None:
-            return f"cannot read {text.strip()!r}: write block.port, or name[i, j].port for a cell"
+            return "write block.port, or name[i, j].port for a cell"
         if m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]"):
-            return (f"cannot read the cell index [{m.group(2)}] of {text.strip()!r}: write whole numbers "
-                    f"separated by commas, e.g. {m.group(1)}[1, 2].{m.group(3)}")
+            return (f"the cell index [{m.group(2)}] must be whole numbers separated by commas, "
+                    f"e.g. {m.group(1)}[1, 2].{m.group(3)}")
         return None
 
 
@@ -327,7 +327,7 @@ def _connection_problem(text):
         for side in (left, right):
             reason = Endpoint.problem(side)
             if reason and "cell index" in reason:
-                return f"cannot read {text.strip()!r}: {reason.split(': ', 1)[1]}"
+                return f"cannot read {text.strip()!r}: {reason}"
     return f"cannot read {text!r}: write \"block.port -> block.port\""
 
 

@@ -112,7 +112,10 @@ def parse(text, problems):
             problems.add(1, "the patch is empty")
             return None
         loader.get_event()                                  # document start
+        before = len(problems.problems)
         value, _, _ = _Composer(loader, problems).node(0)
+        if value is None and len(problems.problems) > before:
+            return None                                     # refused, and reported
         loader.get_event()                                  # document end
         if not loader.check_event(yaml.StreamEndEvent):
             problems.add(loader.peek_event().start_mark.line + 1,
@@ -145,8 +148,8 @@ def parse_value(text, problems, line):
     value = None
     if text.strip():
         value = parse(text, inner)
-        if inner.problems and inner.problems[0].message == "the patch is empty":
-            inner.problems, value = [], None
+        if [p.message for p in inner.problems] == ["the patch is empty"]:
+            inner.problems, value = [], None     # `B.P=# comment`: null, like `B.P=`
     for p in inner.problems:
         problems.add(line, p.message)
     _place(value, line)
