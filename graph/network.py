@@ -10,10 +10,11 @@ import re
 
 import numpy as np
 
-from ..blocks.lattice import STABILITY_BOUND, index_problem, stability_number
+from ..blocks.lattice import BYTES_PER_CELL, MAX_CELLS, STABILITY_BOUND, index_problem, stability_number
 
 _REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
 IDX = np.uint32
+EXACT_CELLS = 250_000   # networks up to this many cells are checked cell by cell, larger by a bound
 
 
 def is_mass_spring(inst):
@@ -302,32 +303,104 @@ def check_springs(blocks, problems, declared=()):
             problems.add(inst.line, f"block {inst.name!r} (spring): joins cell {inst.values['a'].strip()} to itself")
 
 
+def _cells(inst):
+    return math.prod(int(n) for n in inst.values["shape"]) if inst.cls.type_name == "lattice" else 1
+
+
+def check_cells(blocks, problems):
+    """All lattices and cells of a patch together hold at most MAX_CELLS cells (each lattice is
+    also capped on its own by its check); nothing sized by the cells is built here."""
+    total, parts = 0, []
+    for inst in sorted((b for b in blocks.values() if is_mass_spring(b) and b.cls.type_name != "spring"),
+                       key=lambda b: b.index):
+        n = _cells(inst)
+        total += n
+        parts.append(f"{inst.name}: {n:,}")
+        if total > MAX_CELLS:
+            shown = ", ".join(parts[:8]) + (", …" if len(parts) > 8 else "")
+            problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): with it the patch has {total:,} "
+                                    f"cells ({shown}), about {total * BYTES_PER_CELL / 1e9:.1f} GB; at most "
+                                    f"{MAX_CELLS:,} cells are allowed in one patch, all lattices together")
+            return
+
+
+def kernel_items(blocks):
+    """What one kernel compiles: every block that is not a mass-spring one, and each network."""
+    return sum(1 for b in blocks.values() if not is_mass_spring(b)) + len(group(blocks))
+
+
+def _worst_exact(members, springs, rate):
+    """The cell of a network farthest from stability, from its fused arrays:
+    (number, component inst, label, m, Σk, γ, Σk of its lattice, Σk of its joins, component mass)."""
+    net = Network(members, springs, rate)
+    if net.n == 0:
+        return None
+    mass, damp = net.masses(), net.dampings()
+    movable = np.isfinite(mass)
+    if not movable.any():
+        return None
+    own, joins = net.stiffness_parts()
+    ksum = own + joins
+    number = np.where(movable, stability_number(net.dt, ksum, np.where(movable, mass, 1.0), damp), 0.0)
+    worst = int(np.argmax(number))
+    comp = net.component_of(worst)
+    return (float(number[worst]), comp.inst, comp.label(worst), mass[worst], ksum[worst], damp[worst],
+            own[worst], joins[worst])
+
+
+def _worst_bound(members, springs, rate):
+    """The same for a network too big to build at check time, from its declarations: every
+    cell is given the most lattice springs a cell of its lattice can have (so the bound never
+    passes an unstable network); cells with overrides or joins are taken one by one."""
+    dt = 1.0 / rate
+    joins = {}
+    for s in springs:
+        for key in ("a", "b"):
+            name, index = parse_ref(s.values[key])
+            cell = (name, tuple(index) if index is not None else None)
+            joins[cell] = joins.get(cell, 0.0) + s.values["tension"]
+    best = None
+    for inst in members:
+        v = inst.values
+        if inst.cls.type_name == "lattice":
+            shape = [int(n) for n in v["shape"]]
+            fixed = v["boundary"] == "fixed"
+            degree = sum(2 if fixed or n >= 3 else (1 if n == 2 else 0) for n in shape)
+            own = v["tension"] * degree
+            locked = {tuple(i) for i in v["lock"]} | {tuple(c["index"]) for c in v["cells"] if c.get("locked")}
+            cut = {tuple(i) for i in v["cut"]}
+            overrides = {tuple(c["index"]): c for c in v["cells"]}
+            generic = tuple(1 if n >= 3 else 0 for n in shape)
+            cells = {generic} | set(overrides) | {i for (n, i) in joins if n == inst.name}
+        else:
+            own, locked, cut, overrides = 0.0, {None} if v["locked"] else set(), set(), {}
+            cells = {None}
+        for index in cells:
+            if index in locked or index in cut:
+                continue
+            o = overrides.get(index, {})
+            m, g = o.get("mass", v["mass"]), o.get("damping", v["damping"])
+            k_join = joins.get((inst.name, index), 0.0)
+            number = stability_number(dt, own + k_join, m, g)
+            if best is None or number > best[0]:
+                label = inst.name if index is None else f"{inst.name}[{', '.join(map(str, index))}]"
+                best = (number, inst, label, m, own + k_join, g, own, k_join)
+    return best
+
+
 def check_stability(blocks, rate, problems):
     """Refuse a network whose half-step update would blow up, naming the worst cell."""
     for members, springs in group(blocks):
-        net = Network(members, springs, rate)
-        if net.n == 0:
+        exact = sum(_cells(m) for m in members) <= EXACT_CELLS
+        found = (_worst_exact if exact else _worst_bound)(members, springs, rate)
+        if found is None or found[0] < STABILITY_BOUND:
             continue
-        ksum = net.stiffness_sums()
-        mass = net.masses()
-        damp = net.dampings()
-        movable = np.isfinite(mass)
-        if not movable.any():
-            continue
-        number = np.where(movable, stability_number(net.dt, ksum, np.where(movable, mass, 1.0), damp), 0.0)
-        worst = int(np.argmax(number))
-        if number[worst] < STABILITY_BOUND:
-            continue
-        comp = net.component_of(worst)
-        inst = comp.inst
-        dt = net.dt
-        m, k, g = mass[worst], ksum[worst], damp[worst]
+        number, inst, label, m, k, g, k_own, k_join = found
+        dt = 1.0 / rate
         # the largest stable value of the component's tension (or the smallest mass), others fixed
         hints = []
-        own, joins = net.stiffness_parts()
-        k_own, k_join = own[worst], joins[worst]
         budget = (STABILITY_BOUND - dt * g / m) * m / (dt * dt)   # the Σk the cell can take
-        if comp.shape and inst.values["tension"] > 0 and k_own > 0:
+        if inst.cls.type_name == "lattice" and inst.values["tension"] > 0 and k_own > 0:
             if budget > k_join:
                 # only the lattice's own springs scale with its tension; the joins do not
                 hints.append(f"largest stable tension {inst.values['tension'] * (budget - k_join) / k_own:.4g} N/m")
@@ -336,5 +409,5 @@ def check_stability(blocks, rate, problems):
         mass_needed = (dt * dt * k + dt * g) / STABILITY_BOUND
         hints.append(f"smallest stable mass {mass_needed * inst.values['mass'] / m:.4g} kg")
         problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): unstable at {rate:g} Hz: cell "
-                                f"{comp.label(worst)} has dt²·Σk/m + dt·γ/m = {number[worst]:.3g}, the half-step "
+                                f"{label} has dt²·Σk/m + dt·γ/m = {number:.3g}, the half-step "
                                 f"scheme needs < {STABILITY_BOUND:g} ({'; '.join(hints)}; or raise the rate)")

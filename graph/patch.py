@@ -8,18 +8,22 @@ import os
 import re
 
 import jsonschema
-import yaml
 
 from .errors import Collector, PatchError
-from .network import check_springs, check_stability
+from .network import check_cells, check_springs, check_stability, kernel_items
 from .profiles import attach_profiles, profile_of
 from .registry import Registry, RegistryError
 from .schedule import schedule
-from .schema import patch_schema
-from .source import LDict, LList, PatchLoader, line_of, load_yaml
+from .schema import INDEX, patch_schema
+from .source import LDict, LList, line_of, load_yaml, parse_value
 
 DEFAULT_RATE = 44100.0
-_ENDPOINT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)(?:\[([-0-9 ,]*)\])?\.([A-Za-z_][A-Za-z0-9_]*)\s*")
+# the most blocks one kernel holds (a fused mass-spring network counts as one): numba's memory
+# grows with the kernel's size (docs/limits.md has the measurements)
+MAX_BLOCKS = 1000
+_NAME = r"[A-Za-z_][A-Za-z0-9_]*"
+_ENDPOINT = re.compile(rf"\s*({_NAME})(?:\[([^\]]*)\])?\.({_NAME})\s*")
+_INDEX = re.compile(INDEX)     # the schema's: `[i, j]` of whole numbers
 
 
 class Endpoint:
@@ -36,16 +40,23 @@ class Endpoint:
 
     @classmethod
     def parse(cls, text):
+        """An Endpoint, or None if `text` cannot be read (`problem` says why)."""
         m = _ENDPOINT.fullmatch(text)
-        if not m:
+        if not m or (m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]")):
             return None
-        index = None
-        if m.group(2) is not None:
-            try:
-                index = tuple(int(v) for v in m.group(2).split(","))
-            except ValueError:
-                return None
+        index = None if m.group(2) is None else tuple(int(v) for v in m.group(2).split(","))
         return cls(m.group(1), index, m.group(3))
+
+    @staticmethod
+    def problem(text):
+        """Why `text` is not an endpoint: a sentence, or None if it is one."""
+        m = _ENDPOINT.fullmatch(text)
+        if m is None:
+            return "write block.port, or name[i, j].port for a cell"
+        if m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]"):
+            return (f"the cell index [{m.group(2)}] must be whole numbers separated by commas, "
+                    f"e.g. {m.group(1)}[1, 2].{m.group(3)}")
+        return None
 
 
 class Connection:
@@ -117,25 +128,23 @@ def load(path, overrides=(), registry=None):
         problems.raise_if_any()
 
     registry = registry or Registry()
-    plugins = doc.get("plugins")
-    if isinstance(plugins, LList):
-        for spec, line in zip(plugins, plugins.lines):
-            if isinstance(spec, str):
-                try:
-                    registry.load_plugin(spec, os.path.dirname(os.path.abspath(path)))
-                except RegistryError as exc:
-                    problems.add(line, str(exc))
-    _apply_overrides(doc, overrides, problems)
+    _load_plugins(doc, registry, os.path.dirname(os.path.abspath(path)), problems)
+    _apply_overrides(doc, overrides, registry, problems)
+    _stop_if_full(problems)
     _check_schema(doc, registry, problems)
+    _stop_if_full(problems)
     attach_profiles(doc.get("devices"), os.path.dirname(os.path.abspath(path)), problems)
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema
     blocks = _instances(doc, registry, rate, problems)
+    _stop_if_full(problems)
     connections = _connections(doc, blocks, problems)
+    _stop_if_full(problems)
     before = len(problems.problems)
     declared = set(doc["blocks"]) if isinstance(doc.get("blocks"), LDict) else set()
     check_springs(blocks, problems, declared)
+    check_cells(blocks, problems)     # before anything sized by the cells is built
     if len(problems.problems) == before:
         check_stability(blocks, rate, problems)
     audio = [b for b in blocks.values() if getattr(b.cls, "audio_sink", False)]
@@ -144,14 +153,57 @@ def load(path, overrides=(), registry=None):
                                  f"(the first is {audio[0].name!r})")
     devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
     _check_devices(devices, blocks, problems)
+    _stop_if_full(problems)
+    items = kernel_items(blocks)
+    if items > MAX_BLOCKS:
+        problems.add(doc.lines.get("blocks", 1),
+                     f"the patch has {items:,} blocks to compile (a mass-spring network counts as one); "
+                     f"one kernel holds at most {MAX_BLOCKS:,}: compiling more takes more memory than "
+                     "hapticgraph allows (docs/limits.md)")
+        problems.raise_if_any()
     order = schedule(blocks, connections, problems)
     problems.raise_if_any()
     name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
     return Patch(path, doc, name, rate, blocks, connections, devices, order, registry)
 
 
-def _apply_overrides(doc, overrides, problems):
-    """`--set BLOCK.PARAM=VALUE`: the value is read as a YAML scalar and checked like the file's."""
+def _stop_if_full(problems):
+    """Past the problem limit nothing more is checked: report what was found."""
+    if problems.full:
+        problems.raise_if_any()
+
+
+_MODULE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*")
+
+
+def _load_plugins(doc, registry, base, problems):
+    """`plugins:` entries are module names or .py files; anything else is reported (a wrong type
+    or an empty name by the schema) and never handed to the importer."""
+    plugins = doc.get("plugins")
+    if not isinstance(plugins, LList):
+        return
+    for spec, line in zip(plugins, plugins.lines):
+        if not isinstance(spec, str) or not spec:
+            continue   # reported by the schema
+        if not (spec.endswith(".py") or "/" in spec or os.sep in spec or _MODULE.fullmatch(spec)):
+            problems.add(line, f"plugins: {spec!r} is neither a module name (my_blocks, pkg.blocks) "
+                               "nor a .py file")
+            continue
+        try:
+            registry.load_plugin(spec, base)
+        except RegistryError as exc:
+            problems.add(line, str(exc))
+
+
+def _names(names, most=20):
+    names = list(names)
+    shown = ", ".join(names[:most])
+    return shown + (f", … ({len(names) - most} more)" if len(names) > most else "") if names else "none"
+
+
+def _apply_overrides(doc, overrides, registry, problems):
+    """`--set BLOCK.PARAM=VALUE`: the value is read by the loader's guarded path (budgets, no
+    tags, finite numbers) and then checked by the schema like the file's own values."""
     blocks = doc.get("blocks")
     for text in overrides:
         target, sep, raw = text.partition("=")
@@ -160,18 +212,26 @@ def _apply_overrides(doc, overrides, problems):
             problems.add(1, f"--set {text!r}: expected BLOCK.PARAM=VALUE")
             continue
         if not isinstance(blocks, LDict) or not isinstance(blocks.get(block), LDict):
-            problems.add(1, f"--set {text!r}: the patch has no block named {block!r}")
+            have = list(blocks) if isinstance(blocks, LDict) else []
+            problems.add(1, f"--set {text!r}: the patch has no block named {block!r}{_suggest(block, have)}; "
+                            f"its blocks: {_names(have)}")
             continue
-        try:
-            value = yaml.load(raw, Loader=PatchLoader)
-        except yaml.YAMLError:
-            value = raw
-        if isinstance(value, list):
-            value = LList(value)
-            value.lines = [blocks[block].line] * len(value)
         entry = blocks[block]
-        entry[param] = value
-        entry.lines.setdefault(param, entry.line)
+        line = blocks.lines.get(block, entry.line)
+        cls = registry.types.get(entry.get("type"))
+        if cls is not None and param != "type":
+            public = [n for n, p in cls.params.items() if not p.internal]
+            if param not in public:
+                problems.add(line, f"--set {text!r}: block {block!r} ({cls.type_name}) has no parameter "
+                                   f"{param!r}{_suggest(param, public)}; its parameters: {_names(public)}")
+                continue
+        inner = Collector(problems.file)
+        ok, value = parse_value(raw, inner, line)
+        for p in inner.problems:
+            problems.add(line, f"--set {text!r}: {p.message}")
+        if ok:
+            entry[param] = value
+            entry.lines[param] = line
 
 
 def _suggest(word, choices):
@@ -184,6 +244,8 @@ def _check_schema(doc, registry, problems):
     skip_blocks = set()
     if isinstance(blocks, LDict):
         for name, spec in blocks.items():
+            if problems.full:
+                return
             line = blocks.lines[name]
             if not isinstance(spec, LDict):
                 continue
@@ -205,6 +267,8 @@ def _check_schema(doc, registry, problems):
                                      f"{_suggest(key, public)}")
     validator = jsonschema.Draft202012Validator(patch_schema(registry))
     for err in validator.iter_errors(doc):
+        if problems.full:
+            return
         path = list(err.absolute_path)
         if len(path) >= 2 and path[0] == "blocks" and path[1] in skip_blocks:
             continue
@@ -244,8 +308,8 @@ def _describe(err, path, doc, registry):
         "const": lambda: f"{v!r} must be {s!r}",
         "minItems": lambda: f"needs at least {s} item(s), has {len(v)}",
         "maxItems": lambda: f"takes at most {s} item(s), has {len(v)}",
-        "pattern": lambda: (f"cannot read {v!r}: write \"block.port -> block.port\""
-                            if path and path[0] == "connect" else f"{v!r} is not a valid name"),
+        "pattern": lambda: (_connection_problem(v) if path and path[0] == "connect"
+                            else f"{v!r} is not a valid name"),
         "required": lambda: f"missing {', '.join(repr(r) for r in s if r not in v)}",
         "additionalProperties": lambda: f"unknown key(s) {', '.join(repr(k) for k in v if k not in err.schema.get('properties', {}))}",
         "minLength": lambda: "must not be empty",
@@ -257,12 +321,24 @@ def _describe(err, path, doc, registry):
     return f"{what}: {text}"
 
 
+def _connection_problem(text):
+    left, arrow, right = text.partition("->")
+    if arrow:
+        for side in (left, right):
+            reason = Endpoint.problem(side)
+            if reason and "cell index" in reason:
+                return f"cannot read {text.strip()!r}: {reason}"
+    return f"cannot read {text!r}: write \"block.port -> block.port\""
+
+
 def _instances(doc, registry, rate, problems):
     blocks = doc.get("blocks")
     out = {}
     if not isinstance(blocks, LDict):
         return out
     for index, (name, spec) in enumerate(blocks.items()):
+        if problems.full:
+            break
         if not isinstance(spec, LDict) or spec.get("type") not in registry.types:
             continue
         cls = registry.types[spec["type"]]
@@ -368,12 +444,14 @@ def _connections(doc, blocks, problems):
         return out
     names = doc.get("blocks") if isinstance(doc.get("blocks"), LDict) else {}
     for text, line in zip(conns, conns.lines):
+        if problems.full:
+            break
         if not isinstance(text, str) or "->" not in text:
             continue  # reported by the schema
         left, _, right = text.partition("->")
         src, dst = Endpoint.parse(left), Endpoint.parse(right)
         if src is None or dst is None:
-            continue
+            continue  # reported by the schema (its pattern), with the reason
         ok = True
         for end, role in ((src, "output"), (dst, "input")):
             if end.block not in names:

@@ -51,7 +51,7 @@ from .errors import PatchError
 from .source import LDict, load_yaml
 
 SUFFIXES = (".yaml", ".yml")
-IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # used with fullmatch: a name is matched whole
 RESERVED = ("t", "x", "v", "force", "device", "axes", "sensor_x", "sensor_v", "estimate")
 MAX_REPORT = 4096        # bytes; USB full speed interrupt reports are ≤ 64, high speed ≤ 1024
 
@@ -234,7 +234,7 @@ def find_profile(ref, base=None):
     if ref.endswith(SUFFIXES) or "/" in ref or os.sep in ref:
         path = ref if os.path.isabs(ref) else os.path.join(base or os.getcwd(), ref)
         return path if os.path.isfile(path) else None
-    if not IDENT.match(ref):
+    if not IDENT.fullmatch(ref):
         return None
     path = os.path.join(shipped_dir(), ref + ".yaml")
     return path if os.path.isfile(path) else None
@@ -448,7 +448,7 @@ def _fields(chk, node, key, where, keys, default_size, length, names):
     for name, spec in group.items():
         line = group.lines[name]
         here = f"{where}.{key}.{name}"
-        if not IDENT.match(str(name)):
+        if not IDENT.fullmatch(str(name)):
             chk.add(line, f"{here}: {name!r} is not a port name (letters, digits, _)")
             continue
         if name in RESERVED:

@@ -264,25 +264,45 @@ class Program:
 
     # -- probes and control-rate changes ----------------------------------------------------------
     def resolve_probe(self, probe):
-        """`BLOCK.PORT` (an output, an input, a live parameter or a state) or `LATTICE[i, j].PORT`."""
-        from .patch import Endpoint
+        """`BLOCK.PORT` (an output, an input, a live parameter or a state) or `LATTICE[i, j].PORT`
+        (a cell's position, velocity, or force: the sum of the forces wired into it)."""
+        from ..blocks.lattice import index_problem
+        from .patch import Endpoint, _names, _suggest
         end = Endpoint.parse(probe)
-        if end is not None and end.block in self.network_of and end.port in ("position", "velocity"):
-            inst = self.patch.blocks[end.block]
-            check = getattr(inst.cls, "check_cell", None)
-            msg = check(inst.values, end.index, end.port, "output") if check and end.index is not None else (
-                f"address a cell as {end.block}[i, ...].{end.port}" if check else None)
-            if msg:
-                raise PlanError(f"probe {probe!r}: {msg}")
-            return ("sum", (self.network_of[end.block].element(end),))
-        block, _, port = probe.partition(".")
+        if end is None:
+            raise PlanError(f"probe {probe!r}: {Endpoint.problem(probe)}")
+        block, port = end.block, end.port
         bp = self.by_name.get(block)
         if bp is None:
-            raise PlanError(f"probe {probe!r}: no block named {block!r}")
+            names = list(self.by_name)
+            raise PlanError(f"probe {probe!r}: no block named {block!r}{_suggest(block, names)}; "
+                            f"its blocks: {_names(names)}")
+        net = self.network_of.get(block)
+        comp = net.net.by_name.get(block) if net is not None else None
+        if comp is not None:
+            cell = block if end.index is None else f"{block}[{', '.join(map(str, end.index))}]"
+            if comp.shape and end.index is None:
+                raise PlanError(f"probe {probe!r}: {block!r} is a lattice; address a cell as {block}[i, ...].{port}")
+            if not comp.shape and end.index is not None:
+                raise PlanError(f"probe {probe!r}: {block!r} is a single cell; write it without an index")
+            ports = ("force", "position", "velocity")
+            if port not in ports:
+                raise PlanError(f"probe {probe!r}: a cell has no port {port!r}{_suggest(port, ports)}; "
+                                "its ports: force (input), position, velocity (outputs)")
+            msg = index_problem(list(comp.shape), list(end.index)) if comp.shape else None
+            if msg:
+                raise PlanError(f"probe {probe!r}: {msg}")
+            flat = comp.flat(end.index)
+            if flat is None:
+                raise PlanError(f"probe {probe!r}: {cell} is cut out of its lattice; it has no ports")
+            if port == "force":
+                return ("sum", tuple(net.forces.get(flat, ())))
+            return ("sum", (net.element(end),))
+        if end.index is not None:
+            raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no cells to index")
         out = bp.inst.output(port)
         if out is not None:
-            from .patch import Endpoint as _E
-            return ("sum", (self._source(_E(block, None, port)),))
+            return ("sum", (self._source(Endpoint(block, None, port)),))
         for p in bp.inst.inputs:
             if p.name == port:
                 return ("sum", bp.inputs.get(port, ()))
@@ -291,11 +311,10 @@ class Program:
         for i, s in enumerate(bp.cls.states):
             if s.attr == port:
                 return ("state", bp.states[i])
-        names = [p.name for p in bp.inst.outputs + bp.inst.inputs] + [s.attr for s in bp.cls.states]
-        if block in self.network_of:
-            names = ["position", "velocity"]
+        names = ([p.name for p in bp.inst.outputs + bp.inst.inputs] + [n for n, p in bp.cls.params.items() if p.live]
+                 + [s.attr for s in bp.cls.states])
         raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
-                        f"{port!r}; it has: {', '.join(names)}")
+                        f"{port!r}{_suggest(port, names)}; it has: {', '.join(dict.fromkeys(names)) or 'none'}")
 
     def edit_cell(self, block, index, action):
         """Lock, unlock or cut `block[index]` between kernel calls (needs `editable=True`)."""

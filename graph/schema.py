@@ -1,8 +1,12 @@
 """The JSON Schema of a patch, assembled from every registered block type's declarations."""
 
-IDENT = r"^[A-Za-z_][A-Za-z0-9_]*$"
-ENDPOINT = r"[A-Za-z_][A-Za-z0-9_]*(\[[-0-9 ,]*\])?\.[A-Za-z_][A-Za-z0-9_]*"
-CONNECTION = rf"^\s*{ENDPOINT}\s*->\s*{ENDPOINT}\s*$"
+# Patterns are ECMA-262 (for editors) and read by Python's re.search, whose `$` also matches
+# before a final newline: `(?![\s\S])` anchors at the very end in both, so a name is matched whole.
+END = r"(?![\s\S])"
+IDENT = rf"^[A-Za-z_][A-Za-z0-9_]*{END}"
+INDEX = r"\[ *-?[0-9]{1,18} *(, *-?[0-9]{1,18} *)*\]"
+ENDPOINT = rf"[A-Za-z_][A-Za-z0-9_]*({INDEX})?\.[A-Za-z_][A-Za-z0-9_]*"
+CONNECTION = rf"^\s*{ENDPOINT}\s*->\s*{ENDPOINT}\s*{END}"
 DRIVERS = ["simulated", "hid", "replay"]
 
 

@@ -3,14 +3,15 @@ checks, the stability check and the devices can raise. Each exits 2 with `FILE:L
 naming the thing at fault, no traceback, within 2 s; `check` reports all problems at once."""
 import re
 import time
+from pathlib import Path
 
 import pytest
 import yaml
 
-from conftest import ROOT
 from hapticgraph.cli import main
 
-CORPUS = ROOT / "tests" / "corpus"
+# not `from conftest import ROOT`: tests/hostile has a conftest.py too, and the module name clashes
+CORPUS = Path(__file__).resolve().parent / "corpus"
 EXPECTED = yaml.safe_load((CORPUS / "expected.yaml").read_text(encoding="utf-8"))
 
 

@@ -89,3 +89,25 @@ def test_bad_probe_is_a_usage_error(tmp_path, capsys):
     path.write_text(OK_HEAD + "blocks:\n  a: {type: constant}\n")
     assert main(["run", str(path), "--probe", "a.nothing", "--out", str(tmp_path / "x.wav")]) == 2
     assert "probe 'a.nothing'" in capsys.readouterr().err
+
+
+def test_the_collector_keeps_a_bounded_number_of_problems():
+    from hapticgraph.graph.errors import Collector, PatchError
+    problems = Collector("p.yaml", limit=3)
+    for line in range(1, 11):
+        problems.add(line, f"problem {line}")
+    assert problems.full and len(problems.problems) == 3 and problems.suppressed == 7
+    try:
+        problems.raise_if_any()
+    except PatchError as exc:
+        lines = [str(p) for p in exc.problems]
+    assert lines == ["p.yaml:1: problem 1", "p.yaml:2: problem 2", "p.yaml:3: problem 3",
+                     "p.yaml:4: 7 more problem(s) not shown (at most 3 are reported)"]
+
+
+def test_set_values_are_read_like_the_file(tmp_path, capsys):
+    path = tmp_path / "p.yaml"
+    path.write_text(OK_HEAD + "blocks:\n  f: {type: lowpass}\n")
+    assert main(["check", str(path), "--set", "f.coeffs=[0.5, 0.5]", "--set", "f.gain=0.5"]) == 0
+    assert main(["check", str(path), "--set", "f.gain=.inf"]) == 2
+    assert f"{path}:4: --set 'f.gain=.inf': '.inf': numbers must be finite" in capsys.readouterr().err
