@@ -6,7 +6,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import assert_patch_error, run_hg
+from hostile_env import assert_patch_error, run_hg
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 KARPLUS = os.path.join(ROOT, "patches", "karplus_strong.yaml")
