@@ -314,6 +314,7 @@ class Recorder:
         self.rows_written = 0
         self.flush_every = flush_every
         self.failed = None             # why recording stopped early (a full disk), else None
+        self.stopped = set()           # the files that stopped (each keeps what it holds)
         self.stream = stream if stream is not None else sys.stderr
         self.f = _Appender(self.path, header_bytes(self.header), 8 * max(1, self.nin + self.nforce))
         try:
@@ -338,7 +339,7 @@ class Recorder:
 
     def push_inputs(self, ext, force):
         """A processed block: its device inputs (n × inputs) and forces (n × devices, or None: zero)."""
-        if self.inputs_stopped or self.failed:
+        if self.inputs_stopped:
             return
         n = ext.shape[0]
         if self.rw + n - self.rr > self.size:
@@ -357,8 +358,6 @@ class Recorder:
         self.rw += n
 
     def push_audio(self, audio):
-        if self.failed:
-            return
         n = audio.shape[0]
         if self.aw + n - self.ar > self.size:
             self.dropped += n
@@ -375,12 +374,10 @@ class Recorder:
     # the writer thread ----------------------------------------------------------------------
     def _drain(self):
         with self._lock:
-            if self.failed:
-                return
-            try:
-                for ring, attr_w, attr_r, out in ((self.rows, "rw", "rr", self.f), (self.audio, "aw", "ar", self.wav)):
-                    w, r = getattr(self, attr_w), getattr(self, attr_r)
-                    while r < w:
+            for ring, attr_w, attr_r, out in ((self.rows, "rw", "rr", self.f), (self.audio, "aw", "ar", self.wav)):
+                w, r = getattr(self, attr_w), getattr(self, attr_r)
+                try:
+                    while r < w and out not in self.stopped:
                         i = r & self.mask
                         k = min(w - r, self.size - i)
                         chunk = ring[i:i + k]
@@ -392,20 +389,27 @@ class Recorder:
                         else:
                             out.write(chunk)
                         r += k
-                    setattr(self, attr_r, r)
-                self.wav.flush()
-            except OSError as exc:
-                self._fail(exc)
+                    if out is self.wav and out not in self.stopped:
+                        out.flush()
+                except OSError as exc:
+                    self._fail(out, exc)
+                setattr(self, attr_r, w)
 
-    def _fail(self, exc):
-        """The disk is full: keep the whole rows and frames written, stop recording, play on."""
-        self.failed = f"{exc.strerror or exc}" if isinstance(exc, DiskFull) else f"{self.path}: {exc}"
-        try:
-            self.wav.flush()
-        except OSError:
-            pass
-        print(f"hapticgraph: recording stopped: {self.failed}; {self.path} keeps {self.rows_written} samples "
-              f"and {self.wav_path} {self.wav.frames} frames; still playing", file=self.stream)
+    def _fail(self, out, exc):
+        """A file did not fit (a full disk): keep its whole rows (frames), stop writing it, play on."""
+        self.stopped.add(out)
+        why = f"{exc.strerror or exc}" if isinstance(exc, DiskFull) else f"{out.path}: {exc}"
+        self.failed = self.failed or why
+        if out is self.wav:
+            try:
+                self.wav.flush()
+            except OSError:
+                pass
+            kept = f"{self.wav.frames} frames of audio"
+        else:
+            kept = f"{self.rows_written} samples of device inputs"
+        print(f"hapticgraph: recording stopped: {why}; the file keeps the {kept} written before; still playing",
+              file=self.stream)
 
     def _loop(self):
         while not self._stop.wait(self.flush_every):
@@ -421,8 +425,7 @@ class Recorder:
         try:
             self.wav.close()
         except OSError as exc:
-            if not self.failed:
-                self.failed = f"{self.wav_path}: {exc.strerror or exc}"
+            self.failed = self.failed or f"{self.wav_path}: {exc.strerror or exc}"
 
     @property
     def frames(self):
@@ -507,6 +510,8 @@ class Take:
         except jsonschema.ValidationError as exc:
             where = ".".join(str(p) for p in exc.absolute_path) or "the header"
             raise self._bad(f"{where}: {exc.message[:200]}") from None
+        if float(h["patch"]["signature"]["rate"]) != float(h["rate"]):
+            raise self._bad(f"its rate {h['rate']:g} Hz is not its patch's, {h['patch']['signature']['rate']:g} Hz")
         cols, nin, forces = h["columns"], h["inputs"], h["forces"]
         if len(cols) != nin + len(forces):
             raise self._bad(f"{len(cols)} columns, but {nin} inputs and {len(forces)} forces")
@@ -578,7 +583,7 @@ class Take:
         if name not in theirs["devices"]:
             have = ", ".join(sorted(theirs["devices"])) or "none"
             raise TakeError(f"{self.name} has no device named {name!r} (it has: {have})")
-        if float(theirs["rate"]) != mine["rate"] or self.rate != mine["rate"]:
+        if self.rate != mine["rate"]:
             raise TakeError(f"{self.name} was recorded at {self.rate:g} Hz; {os.path.basename(patch.file)} runs "
                             f"at {mine['rate']:g} Hz")
         if list(theirs["devices"][name]) != mine["devices"].get(name):

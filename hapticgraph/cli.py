@@ -259,9 +259,9 @@ def _cmd_play(args):
     if not 0 < args.fade <= 1:
         raise UsageError("--fade must be in (0, 1] seconds")
     latency = _parse_latency(args.latency)
-    choices = _device_choices(args.device)
-    if args.replay and choices:
+    if args.replay and args.device:
         raise UsageError("--replay feeds every device from the take; it takes no --device")
+    choices = _device_choices(args.device)
     if args.replay and args.watch:
         raise UsageError("--replay and --watch do not go together")
     patch = load(args.patch, overrides=args.overrides)
