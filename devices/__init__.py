@@ -153,6 +153,10 @@ def open_drivers(patch, choices=None, live_input=None, notes=None):
     base = os.path.dirname(os.path.abspath(patch.file))
     for name, spec in patch.devices.items():
         kind, spec = _entry(name, spec, choices.get(name), accepted, said)
+        if notes is None:            # said before the device opens (which may fail)
+            for line in said:
+                print(f"hapticgraph: note: {line}", file=sys.stderr)
+            said.clear()
         factory = _OPEN.get(kind)
         if factory is None:
             raise DeviceError(f"device {name!r}: driver {kind!r} is not available in this build "
@@ -162,9 +166,6 @@ def open_drivers(patch, choices=None, live_input=None, notes=None):
         if isinstance(spec.get("file"), str) and not from_cli:
             spec = {**spec, "file": os.path.join(base, spec["file"])}
         drivers[name] = factory(name, spec, patch)
-    if notes is None:
-        for line in said:
-            print(f"hapticgraph: note: {line}", file=sys.stderr)
     for inst in patch.blocks.values():
         if inst.cls.type_name == "audio_in":
             if not inst.values["file"] and live_input is not None:
