@@ -1,13 +1,14 @@
 """`play --record` on a full disk: a file size limit (RLIMIT_FSIZE, SIGXFSZ ignored so writes fail
 with EFBIG) stops the recording with one clear message; the music plays on to its end; both
 files stay readable — the take holds whole rows (and replays), the WAV's header matches its data."""
+import importlib.util
 import os
+import pathlib
 
 import numpy as np
 import soundfile
 
 from audio_env import ASOUNDRC, alsa_file_env
-from conftest import run_hg, run_py
 from hapticgraph.devices.record import Take
 
 PATCH = """\
@@ -41,6 +42,12 @@ import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)      # writes past the limit fail with EFBIG instead
 resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, {limit}))
 from hapticgraph.cli import main
+
+# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
+_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
+_limits = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_limits)
+run_hg, run_py = _limits.run_hg, _limits.run_py
 sys.exit(main({args!r}))
 """
 
