@@ -9,15 +9,17 @@ A take is two files with one stem:
   block stopped for safety). Layout: 8 bytes `HGREC\\0` + format version (uint16 LE), the header
   length (uint64 LE), a JSON header (UTF-8, padded with spaces to a multiple of 8 bytes), then
   float64 little-endian rows, one per sample, of `len(header["columns"])` values. The header
-  never changes after it is written — the number of rows is (file size − data offset) // row
-  size — so the file is complete at every moment.
+  never changes after it is written — the number of rows is (file size − data offset) / row
+  size — so the file is complete at every moment (stray bytes after the last whole row, as a
+  writer killed mid-row may leave, are refused with the `truncate` that keeps the whole rows).
 - `TAKE.wav`: the audio sent to the sound card, 32-bit float; its header (RIFF, fact and data
   sizes) is rewritten at every flush (every 0.2 s) and on close, so it is a valid file at every
   stop.
 
 Both files are appended whole rows (frames) at a time; when the disk is full (or a file size
-limit is reached) the file is cut back to its last whole row, the WAV header is rewritten to
-match, recording stops with a message and the music goes on: what was written stays readable.
+limit is reached) that file is cut back to its last whole row, the WAV header is rewritten to
+match, its recording stops with a message (`play` then exits with status 1) and the music goes
+on: what was written stays readable.
 
 The header names the patch by a fingerprint of what a take has to match: the rate, the device
 names with their axes, and the audio_in blocks. A take from another patch is refused before
@@ -286,10 +288,6 @@ def header_bytes(header):
     body = json.dumps(header, indent=1, allow_nan=False).encode("utf-8")
     body += b" " * ((-(PREAMBLE + len(body))) % 8)
     return MAGIC + struct.pack("<H", VERSION) + struct.pack("<Q", len(body)) + body
-
-
-def write_take_header(f, header):
-    f.write(header_bytes(header))
 
 
 class Recorder:

@@ -8,6 +8,13 @@ import pathlib
 import pytest
 
 
+# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
+_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
+_limits = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_limits)
+assert_patch_error, run_hg, run_py = _limits.assert_patch_error, _limits.run_hg, _limits.run_py
+
+
 HID_PATCH = """\
 hapticgraph: 1
 devices:
@@ -81,13 +88,6 @@ import json, math
 import numpy as np
 from hapticgraph.devices.hid import HidDriver, ReplayTransport
 from hapticgraph.devices.simulated import SimulatedDevice
-from hapticgraph.devices.record import ReplayDriver
-
-# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
-_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
-_limits = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_limits)
-assert_patch_error, run_hg, run_py = _limits.assert_patch_error, _limits.run_hg, _limits.run_py
 
 out = {}
 t = ReplayTransport([(0.0, bytes([1]) + bytes(12))])

@@ -11,6 +11,13 @@ import soundfile
 from audio_env import ASOUNDRC, alsa_file_env
 from hapticgraph.devices.record import Take
 
+
+# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
+_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
+_limits = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_limits)
+run_hg, run_py = _limits.run_hg, _limits.run_py
+
 PATCH = """\
 hapticgraph: 1
 name: recorded on a full disk
@@ -42,12 +49,6 @@ import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)      # writes past the limit fail with EFBIG instead
 resource.setrlimit(resource.RLIMIT_FSIZE, ({limit}, {limit}))
 from hapticgraph.cli import main
-
-# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
-_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
-_limits = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_limits)
-run_hg, run_py = _limits.run_hg, _limits.run_py
 sys.exit(main({args!r}))
 """
 
