@@ -503,22 +503,40 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
     return drivers, opened, unused
 
 
+def plugin_files(patch):
+    """The source files of the plugin block types a patch loaded (its `plugins:`)."""
+    files = set()
+    registry = getattr(patch, "registry", None)
+    for name, cls in (registry.types.items() if registry is not None else ()):
+        if not str(registry.origin.get(name, "")).startswith("plugin"):
+            continue
+        module = sys.modules.get(cls.__module__)
+        path = getattr(module, "__file__", None)
+        if path:
+            files.add(os.path.realpath(path))
+    return sorted(files)
+
+
 class Watcher:
-    """Polls a patch file's modification time; on a change, loads and compiles the new patch on
-    its own thread and hands it to the player, keeping the state of every unchanged block.
-    A patch with errors is reported and the old one keeps playing."""
+    """Polls the modification times of a patch file and of its plugin files; on a change, loads
+    and compiles the new patch on its own thread (an edited plugin is imported again) and hands it
+    to the player, keeping the state of every unchanged block. A patch with errors, or a patch or
+    plugin file that was deleted, is reported in one line and the old patch keeps playing."""
 
     def __init__(self, player, path, make_session, interval=0.25, stream=None):
         self.player, self.path, self.make_session = player, path, make_session
         self.interval, self.stream = interval, stream or sys.stderr
-        self.mtime = self._mtime()
+        self.files = [os.fspath(path)] + plugin_files(player.bound.session.prog.patch)
+        self.stamps = {f: self._mtime(f) for f in self.files}
+        self.missing = set()
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._loop, name="hapticgraph-watch", daemon=True)
 
-    def _mtime(self):
+    @staticmethod
+    def _mtime(path):
         try:
-            st = os.stat(self.path)
-            return (st.st_mtime_ns, st.st_size)
+            st = os.stat(path)
+            return (st.st_mtime_ns, st.st_size, st.st_ino)
         except OSError:
             return None
 
@@ -531,11 +549,38 @@ class Watcher:
 
     def _loop(self):
         while not self._stop.wait(self.interval):
-            m = self._mtime()
-            if m is None or m == self.mtime:
+            try:
+                self.poll()
+            except Exception as exc:  # noqa: BLE001 - the watcher must not die silently
+                print(f"hapticgraph: --watch: {type(exc).__name__}: {exc}; still playing", file=self.stream)
+
+    def poll(self):
+        """Look at the files once; reload if one changed. True if a reload was swapped in."""
+        changed, gone = [], []
+        for f in self.files:
+            m = self._mtime(f)
+            if m == self.stamps.get(f):
                 continue
-            self.mtime = m
-            self.reload()
+            self.stamps[f] = m
+            (gone if m is None else changed).append(f)
+        for f in gone:
+            if f not in self.missing:
+                self.missing.add(f)
+                what = "patch" if f == self.files[0] else "plugin"
+                print(f"hapticgraph: the {what} file {os.path.basename(f)} was deleted; still playing the "
+                      "previous version", file=self.stream)
+        self.missing -= set(changed)
+        if not changed or self.missing:
+            return False
+        for f in changed:
+            if f != self.files[0]:
+                _forget_module(f)
+        ok = self.reload()
+        if ok:
+            self.files = [self.files[0]] + plugin_files(self.player.bound.session.prog.patch)
+            for f in self.files:
+                self.stamps.setdefault(f, self._mtime(f))
+        return ok
 
     def reload(self):
         from ..graph.errors import PatchError
@@ -572,6 +617,15 @@ class Watcher:
         print(f"hapticgraph: reloaded {os.path.basename(self.path)} at {old.t / old.rate:.3f} s; kept the "
               f"state of {len(kept)} block(s){': ' + ', '.join(kept) if kept else ''}", file=self.stream)
         return True
+
+
+def _forget_module(path):
+    """Drop the imported module of an edited plugin file, so the reload imports it afresh (the
+    playing kernel keeps the functions it was compiled from)."""
+    for name, module in list(sys.modules.items()):
+        file = getattr(module, "__file__", None)
+        if file and os.path.realpath(file) == path:
+            del sys.modules[name]
 
 
 def play_session(patch, drivers, blocksize, probes=(), editable=False):

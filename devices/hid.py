@@ -50,7 +50,8 @@ import numpy as np
 
 from ..graph.engine import Driver
 from ..graph.errors import PatchError
-from ..graph.profiles import find_profile, load_profile, shipped_profiles
+from ..graph.profiles import MAX_FORCE, find_profile, load_profile, shipped_profiles
+from .simulated import force_limit
 
 RING = 512                  # reports held between the reader thread and the kernel
 MAX_READ_MS = 20            # the longest a read waits, so the thread always notices a stop
@@ -384,10 +385,13 @@ class HidDriver(Driver):
         self.decoder = Decoder(profile)
         self.axes = list(profile.ports)
         self.columns = ("sensor_x", "sensor_v") + tuple(self.axes)
-        limit = spec.get("max_force")
+        # the profile's max_force is the device's bound; an entry may only lower it
         self.max_force = float(profile.max_force)
-        if isinstance(limit, (int, float)) and not isinstance(limit, bool) and limit > 0:
-            self.max_force = min(self.max_force, float(limit)) if profile.output else float(limit)
+        if spec.get("max_force") is not None:
+            bound = self.max_force if profile.output else MAX_FORCE
+            self.max_force = force_limit(name, "hid", spec["max_force"], bound,
+                                         f"the bound of its profile {profile.name!r}" if profile.output
+                                         else "the bound of any device")
         vid = spec.get("vendor_id", profile.vendor_id)
         pid = spec.get("product_id", profile.product_id)
         self.transport = transport if transport is not None else HidapiTransport(

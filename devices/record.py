@@ -9,40 +9,105 @@ A take is two files with one stem:
   block stopped for safety). Layout: 8 bytes `HGREC\\0` + format version (uint16 LE), the header
   length (uint64 LE), a JSON header (UTF-8, padded with spaces to a multiple of 8 bytes), then
   float64 little-endian rows, one per sample, of `len(header["columns"])` values. The header
-  never changes after it is written — the number of rows is (file size − data offset) // row
-  size — so the file is complete at every moment.
+  never changes after it is written — the number of rows is (file size − data offset) / row
+  size — so the file is complete at every moment (stray bytes after the last whole row, as a
+  writer killed mid-row may leave, are refused with the `truncate` that keeps the whole rows).
 - `TAKE.wav`: the audio sent to the sound card, 32-bit float; its header (RIFF, fact and data
   sizes) is rewritten at every flush (every 0.2 s) and on close, so it is a valid file at every
   stop.
+
+Both files are appended whole rows (frames) at a time; when the disk is full (or a file size
+limit is reached) that file is cut back to its last whole row, the WAV header is rewritten to
+match, its recording stops with a message (`play` then exits with status 1) and the music goes
+on: what was written stays readable.
 
 The header names the patch by a fingerprint of what a take has to match: the rate, the device
 names with their axes, and the audio_in blocks. A take from another patch is refused before
 anything starts (exit status 2); a take from the same patch with changed parameters re-renders
 the same gestures through the changed instrument. Each driver's entry keeps what makes the kernel
-identical on replay: its columns, the block type it substitutes (e.g. the simulated device's
-model) and that block's internal values (mass, grip, max_force).
+identical on replay: its columns, the device model it substitutes for the patch's block, named
+as data (`"model": "simulated"` or null, looked up in the fixed table MODELS — a take never
+names a module, and reading one imports nothing) and that model's internal values (mass, grip,
+max_force), each checked against the model's declared range.
+
+Reading a take checks everything before anything runs: the magic and version, a header length
+within MAX_HEADER bytes and the file, JSON (no NaN), the header against HEADER_SCHEMA, columns
+that add up (inputs, forces, each driver's slice), a data part that is a whole number of rows,
+and finite data. Every problem is one TakeError line naming the file (exit status 2).
+Replaying always checks the take against the patch: `--replay` the whole signature, a device
+entry `driver: replay` the rate and that device's axes.
 
 While playing, the audio callback only copies each block into preallocated ring buffers; a
 writer thread appends them to the files.
 """
 import datetime
+import errno
 import hashlib
-import importlib
 import json
+import math
 import os
+import stat
 import struct
 import sys
 import threading
 
+import jsonschema
 import numpy as np
 
 from ..graph.engine import Driver
 from ..graph.patch import device_axes
 from . import DeviceError
+from .simulated import SimulatedHaptic
 
 MAGIC = b"HGREC\x00"
 VERSION = 1
 SUFFIX = ".hgrec"
+PREAMBLE = len(MAGIC) + 2 + 8     # magic, version (uint16), header length (uint64)
+MAX_HEADER = 1 << 20              # bytes of JSON header a take may have
+MAX_COLUMNS = 4096
+
+# The device models a take may name, as data: "model" in a driver's entry -> the block type.
+MODELS = {"simulated": SimulatedHaptic}
+MODEL_COLUMNS = {"simulated": ("hand_x", "hand_v")}     # the columns each model reads first
+# Takes written before the model was named as data held a `module:qualname`; only these known
+# strings are understood (looked up, never imported).
+LEGACY_TYPES = {"hapticgraph.devices.simulated:SimulatedHaptic": "simulated"}
+
+_NAMES = {"type": "array", "maxItems": MAX_COLUMNS, "items": {"type": "string", "maxLength": 256}}
+HEADER_SCHEMA = {
+    "type": "object",
+    "required": ["version", "patch", "rate", "columns", "inputs", "forces", "drivers"],
+    "properties": {
+        "version": {"const": VERSION},
+        "rate": {"type": "number", "minimum": 100, "maximum": 1_000_000},
+        "inputs": {"type": "integer", "minimum": 0, "maximum": MAX_COLUMNS},
+        "columns": {"type": "array", "maxItems": MAX_COLUMNS,
+                    "items": {"type": "array", "minItems": 2, "maxItems": 2,
+                              "items": {"type": "string", "maxLength": 256}}},
+        "forces": _NAMES,
+        "patch": {"type": "object", "required": ["fingerprint", "signature"],
+                  "properties": {
+                      "name": {"type": "string"}, "file": {"type": "string"},
+                      "fingerprint": {"type": "string"},
+                      "signature": {"type": "object", "required": ["rate", "devices", "inputs"],
+                                    "properties": {"rate": {"type": "number"},
+                                                   "devices": {"type": "object", "additionalProperties": _NAMES},
+                                                   "inputs": _NAMES}}}},
+        "drivers": {"type": "object", "maxProperties": MAX_COLUMNS,
+                    "additionalProperties": {
+                        "type": "object", "required": ["columns", "offset"],
+                        "properties": {"kind": {"type": "string"},
+                                       "model": {"enum": [None, *MODELS]},
+                                       "block_type": {"type": ["string", "null"]},
+                                       "columns": _NAMES,
+                                       "offset": {"type": "integer", "minimum": 0, "maximum": MAX_COLUMNS},
+                                       "block_values": {"type": "object",
+                                                        "additionalProperties": {"type": "number"}},
+                                       "input": {"type": "boolean"}}}},
+        "audio": {"type": "object"},
+        "blocksize": {"type": "integer"},
+    },
+}
 
 
 class TakeError(DeviceError):
@@ -69,21 +134,16 @@ def _describe(sig):
     return f"{sig['rate']:g} Hz, devices {devs}, audio inputs {ins}"
 
 
-def _type_path(cls):
-    return None if cls is None else f"{cls.__module__}:{cls.__qualname__}"
-
-
-def _import_type(path):
-    if path is None:
+def _model_of(driver):
+    """The name a take gives the model a driver substitutes (None: the patch's own block)."""
+    cls = driver.block_type
+    if cls is None:
         return None
-    module, _, qual = path.partition(":")
-    try:
-        obj = importlib.import_module(module)
-        for part in qual.split("."):
-            obj = getattr(obj, part)
-    except (ImportError, AttributeError) as exc:
-        raise TakeError(f"the take's device model {path} is not available: {exc}") from None
-    return obj
+    for name, model in MODELS.items():
+        if cls is model:
+            return name
+    raise TakeError(f"device {driver.name!r}: its model {cls.__name__} cannot be recorded "
+                    f"(a take names one of: {', '.join(MODELS)})")
 
 
 def _jsonable(value):
@@ -117,7 +177,7 @@ def take_header(session, channels, blocksize, kinds=None):
         d = prog.drivers[device]
         cols = [c for dev, c in prog.ext_columns if dev == device]
         drivers[device] = {"kind": (kinds or {}).get(device, type(d).__name__), "columns": cols,
-                           "offset": offset, "block_type": _type_path(d.block_type),
+                           "offset": offset, "model": _model_of(d),
                            "block_values": _jsonable(d.block_values()),
                            "input": device in sig["inputs"]}
         offset += len(cols)
@@ -135,54 +195,107 @@ def take_header(session, channels, blocksize, kinds=None):
 
 
 # -- writing -------------------------------------------------------------------------------------
+class DiskFull(OSError):
+    """A write that did not fit: the file was cut back to its last whole row (frame)."""
+
+
+class _Appender:
+    """An unbuffered file appended in whole units (rows, frames) after a head: a write that fails
+    part-way (a full disk, a file size limit) cuts the file back to its last whole unit and
+    raises DiskFull, so the file stays readable."""
+
+    def __init__(self, path, head, unit):
+        self.path, self.unit, self.head = path, unit, len(head)
+        self.size = 0
+        self.f = open(path, "wb", buffering=0)
+        try:
+            self._append(head, 1)
+        except DiskFull:
+            self.f.close()
+            raise
+
+    def _append(self, data, unit):
+        view, done = memoryview(data), 0
+        try:
+            while done < len(view):
+                n = self.f.write(view[done:])
+                if not n:
+                    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+                done += n
+        except OSError as exc:
+            self.size += done - done % unit
+            try:
+                os.ftruncate(self.f.fileno(), self.size)
+                self.f.seek(self.size)
+            except OSError:
+                pass
+            raise DiskFull(exc.errno, f"{os.path.basename(self.path)}: {exc.strerror or exc}") from None
+        self.size += done
+        return done
+
+    def write(self, data):
+        """Append whole units; returns how many."""
+        return self._append(data, self.unit) // self.unit
+
+    @property
+    def units(self):
+        return (self.size - self.head) // self.unit
+
+    def put_head(self, head):
+        os.pwrite(self.f.fileno(), head, 0)      # inside the file: never grows it
+
+    def close(self):
+        if not self.f.closed:
+            self.f.close()
+
+
 class FloatWav:
-    """An incrementally written 32-bit IEEE-float WAV whose header is rewritten at every flush."""
+    """An incrementally written 32-bit IEEE-float WAV whose header is rewritten at every flush;
+    a failing write keeps the whole frames written and a header that matches them."""
 
     def __init__(self, path, rate, channels):
         self.path, self.rate, self.channels = path, int(round(rate)), int(channels)
         self.frames = 0
-        self.f = open(path, "wb")
-        self._header()
+        self.out = _Appender(path, self._head(), 4 * self.channels)
 
-    def _header(self):
+    def _head(self):
         ch, rate = self.channels, self.rate
         data = self.frames * 4 * ch
         fmt = struct.pack("<HHIIHHH", 3, ch, rate, rate * 4 * ch, 4 * ch, 32, 0)
-        head = (b"RIFF" + struct.pack("<I", 4 + (8 + len(fmt)) + 12 + 8 + data) + b"WAVE"
+        return (b"RIFF" + struct.pack("<I", 4 + (8 + len(fmt)) + 12 + 8 + data) + b"WAVE"
                 + b"fmt " + struct.pack("<I", len(fmt)) + fmt
                 + b"fact" + struct.pack("<II", 4, self.frames)
                 + b"data" + struct.pack("<I", data))
-        self.f.seek(0)
-        self.f.write(head)
-        self.f.seek(0, os.SEEK_END)
 
     def write(self, frames):
         frames = np.ascontiguousarray(frames, dtype="<f4")
-        self.f.write(frames.tobytes())
-        self.frames += frames.shape[0]
+        try:
+            self.out.write(frames.tobytes())
+        finally:
+            self.frames = self.out.units
 
     def flush(self):
-        self._header()
-        self.f.flush()
+        self.out.put_head(self._head())
 
     def close(self):
-        if not self.f.closed:
+        if not self.out.f.closed:
             self.flush()
-            self.f.close()
+            self.out.close()
 
 
-def write_take_header(f, header):
-    body = json.dumps(header, indent=1).encode("utf-8")
-    start = len(MAGIC) + 2 + 8
-    body += b" " * ((-(start + len(body))) % 8)
-    f.write(MAGIC + struct.pack("<H", VERSION) + struct.pack("<Q", len(body)) + body)
+def header_bytes(header):
+    """The preamble and JSON header of a take, padded so the rows start at a multiple of 8."""
+    body = json.dumps(header, indent=1, allow_nan=False).encode("utf-8")
+    body += b" " * ((-(PREAMBLE + len(body))) % 8)
+    return MAGIC + struct.pack("<H", VERSION) + struct.pack("<Q", len(body)) + body
 
 
 class Recorder:
     """Takes blocks from the audio callback into ring buffers (no allocation, no I/O there) and
     writes them to TAKE.hgrec and TAKE.wav from its own thread."""
 
-    def __init__(self, path, session, channels, blocksize, kinds=None, ring_seconds=4.0, flush_every=0.2):
+    def __init__(self, path, session, channels, blocksize, kinds=None, ring_seconds=4.0, flush_every=0.2,
+                 stream=None):
         self.path, self.wav_path = take_paths(path)
         prog = session.prog
         self.layout = (list(prog.ext_columns), [d for d, _ in prog.device_records])
@@ -198,10 +311,15 @@ class Recorder:
         self.inputs_stopped = None     # a reload changed the devices: inputs no longer recorded
         self.rows_written = 0
         self.flush_every = flush_every
-        self.f = open(self.path, "wb")
-        write_take_header(self.f, self.header)
-        self.f.flush()
-        self.wav = FloatWav(self.wav_path, prog.rate, channels)
+        self.failed = None             # why recording stopped early (a full disk), else None
+        self.stopped = set()           # the files that stopped (each keeps what it holds)
+        self.stream = stream if stream is not None else sys.stderr
+        self.f = _Appender(self.path, header_bytes(self.header), 8 * max(1, self.nin + self.nforce))
+        try:
+            self.wav = FloatWav(self.wav_path, prog.rate, channels)
+        except OSError:
+            self.f.close()
+            raise
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self.thread = threading.Thread(target=self._loop, name="hapticgraph-recorder", daemon=True)
@@ -256,19 +374,40 @@ class Recorder:
         with self._lock:
             for ring, attr_w, attr_r, out in ((self.rows, "rw", "rr", self.f), (self.audio, "aw", "ar", self.wav)):
                 w, r = getattr(self, attr_w), getattr(self, attr_r)
-                while r < w:
-                    i = r & self.mask
-                    k = min(w - r, self.size - i)
-                    chunk = ring[i:i + k]
-                    if out is self.f:
-                        out.write(np.ascontiguousarray(chunk, dtype="<f8").tobytes())
-                        self.rows_written += k
-                    else:
-                        out.write(chunk)
-                    r += k
-                setattr(self, attr_r, r)
-            self.f.flush()
-            self.wav.flush()
+                try:
+                    while r < w and out not in self.stopped:
+                        i = r & self.mask
+                        k = min(w - r, self.size - i)
+                        chunk = ring[i:i + k]
+                        if out is self.f:
+                            try:
+                                out.write(np.ascontiguousarray(chunk, dtype="<f8").tobytes())
+                            finally:
+                                self.rows_written = out.units if chunk.shape[1] else r + k
+                        else:
+                            out.write(chunk)
+                        r += k
+                    if out is self.wav and out not in self.stopped:
+                        out.flush()
+                except OSError as exc:
+                    self._fail(out, exc)
+                setattr(self, attr_r, w)
+
+    def _fail(self, out, exc):
+        """A file did not fit (a full disk): keep its whole rows (frames), stop writing it, play on."""
+        self.stopped.add(out)
+        why = f"{exc.strerror or exc}" if isinstance(exc, DiskFull) else f"{out.path}: {exc}"
+        self.failed = self.failed or why
+        if out is self.wav:
+            try:
+                self.wav.flush()
+            except OSError:
+                pass
+            kept = f"{self.wav.frames} frames of audio"
+        else:
+            kept = f"{self.rows_written} samples of device inputs"
+        print(f"hapticgraph: recording stopped: {why}; the file keeps the {kept} written before; still playing",
+              file=self.stream)
 
     def _loop(self):
         while not self._stop.wait(self.flush_every):
@@ -281,7 +420,10 @@ class Recorder:
             self.thread.join(5.0)
         self._drain()
         self.f.close()
-        self.wav.close()
+        try:
+            self.wav.close()
+        except OSError as exc:
+            self.failed = self.failed or f"{self.wav_path}: {exc.strerror or exc}"
 
     @property
     def frames(self):
@@ -289,37 +431,123 @@ class Recorder:
 
 
 # -- reading and replaying -----------------------------------------------------------------------
+def _no_constant(name):
+    raise ValueError(f"{name} is not a number a take may hold")
+
+
 class Take:
-    """A recorded take: `header`, `inputs` (samples × input columns), `forces`, `rate`."""
+    """A recorded take: `header`, `inputs` (samples × input columns), `forces`, `rate`.
+    Everything is checked on reading (see the module's doc); a problem raises TakeError."""
 
     def __init__(self, path):
         self.path = os.fspath(path)
+        self.name = os.path.basename(self.path)
         try:
+            if not stat.S_ISREG(os.stat(self.path).st_mode):     # a FIFO would block the open
+                raise TakeError(f"{self.path}: not a take: not a regular file")
             with open(self.path, "rb") as f:
-                head = f.read(len(MAGIC) + 10)
-                if len(head) < len(MAGIC) + 10 or head[:len(MAGIC)] != MAGIC:
+                st = os.fstat(f.fileno())
+                head = f.read(PREAMBLE)
+                if len(head) < PREAMBLE or head[:len(MAGIC)] != MAGIC:
                     raise TakeError(f"{self.path}: not a hapticgraph take (.hgrec) file")
                 version = struct.unpack("<H", head[len(MAGIC):len(MAGIC) + 2])[0]
                 if version != VERSION:
                     raise TakeError(f"{self.path}: take format version {version}; this hapticgraph reads {VERSION}")
                 length = struct.unpack("<Q", head[len(MAGIC) + 2:])[0]
-                if length > 16 << 20:
-                    raise TakeError(f"{self.path}: corrupt header")
-                self.header = json.loads(f.read(length).decode("utf-8"))
-                offset = len(MAGIC) + 10 + length
+                if length > st.st_size - PREAMBLE:
+                    raise self._bad(f"its header says {length} bytes but the file holds only "
+                                    f"{st.st_size - PREAMBLE} after the preamble (truncated?)")
+                if length > MAX_HEADER:
+                    raise self._bad(f"a header of {length} bytes (at most {MAX_HEADER})")
+                text = f.read(length)
+                offset = PREAMBLE + length
+                size = st.st_size
+                self.header = json.loads(text.decode("utf-8"), parse_constant=_no_constant)
         except OSError as exc:
             raise TakeError(f"cannot read take {self.path}: {exc.strerror or exc}") from None
-        except (ValueError, UnicodeDecodeError) as exc:
-            raise TakeError(f"{self.path}: corrupt header: {exc}") from None
+        except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+            raise self._bad(f"its header is not valid JSON: {str(exc)[:200]}") from None
         h = self.header
+        self._check_header(h)
         ncol = len(h["columns"])
-        data = np.fromfile(self.path, dtype="<f8", offset=offset)
-        rows = data.size // ncol if ncol else 0
-        self.data = data[:rows * ncol].reshape(rows, ncol) if ncol else np.zeros((0, 0))
+        rowbytes = 8 * ncol
+        extra = size - offset
+        if ncol == 0:
+            if extra:
+                raise self._bad(f"{extra} bytes of data but no columns")
+            rows = 0
+        else:
+            rows, stray = divmod(extra, rowbytes)
+            if stray:
+                raise self._bad(f"its data is {rows} rows of {rowbytes} bytes and {stray} bytes more (a writer "
+                                f"stopped mid-row?); `truncate -s {offset + rows * rowbytes} {self.path}` keeps "
+                                f"the {rows} whole rows")
+        try:
+            data = np.fromfile(self.path, dtype="<f8", offset=offset, count=rows * ncol) if rows else np.zeros(0)
+        except (OSError, ValueError, MemoryError) as exc:
+            raise TakeError(f"cannot read take {self.path}: {exc}") from None
+        if data.size != rows * ncol:
+            raise self._bad("the file changed while it was read")
+        self.data = data.reshape(rows, ncol) if ncol else np.zeros((0, 0))
+        bad = ~np.isfinite(self.data)
+        if bad.any():
+            r, c = np.argwhere(bad)[0]
+            raise self._bad(f"sample {r}, column {'.'.join(h['columns'][c])} is {self.data[r, c]} "
+                            f"({int(bad.sum())} values are not finite numbers)")
         self.rate = float(h["rate"])
         self.inputs = self.data[:, :h["inputs"]]
         self.forces = self.data[:, h["inputs"]:]
         self.frames = rows
+
+    def _bad(self, why):
+        return TakeError(f"{self.path}: not a readable take: {why}")
+
+    def _check_header(self, h):
+        try:
+            jsonschema.Draft202012Validator(HEADER_SCHEMA).validate(h)
+        except jsonschema.ValidationError as exc:
+            where = ".".join(str(p) for p in exc.absolute_path) or "the header"
+            raise self._bad(f"{where}: {exc.message[:200]}") from None
+        if float(h["patch"]["signature"]["rate"]) != float(h["rate"]):
+            raise self._bad(f"its rate {h['rate']:g} Hz is not its patch's, {h['patch']['signature']['rate']:g} Hz")
+        cols, nin, forces = h["columns"], h["inputs"], h["forces"]
+        if len(cols) != nin + len(forces):
+            raise self._bad(f"{len(cols)} columns, but {nin} inputs and {len(forces)} forces")
+        if cols[nin:] != [[d, "force"] for d in forces]:
+            raise self._bad("the force columns do not match `forces`")
+        for name, info in h["drivers"].items():
+            off, dcols = info["offset"], info["columns"]
+            if off + len(dcols) > nin or cols[off:off + len(dcols)] != [[name, c] for c in dcols]:
+                raise self._bad(f"driver {name!r}: its columns do not match columns {off} … "
+                                f"{off + len(dcols) - 1} of the take")
+            model = self.model_of(name, info)
+            values = info.get("block_values") or {}
+            cls = MODELS.get(model)
+            for key, value in values.items():
+                param = cls.params.get(key) if cls is not None else None
+                if param is None or not param.internal:
+                    allowed = ", ".join(n for n, p in cls.params.items() if p.internal) if cls else "none"
+                    raise self._bad(f"driver {name!r}: unknown model value {key!r} (allowed: {allowed})")
+                try:
+                    jsonschema.validate(value, param.schema())
+                except jsonschema.ValidationError as exc:
+                    raise self._bad(f"driver {name!r}: {key} {exc.message[:200]}") from None
+            if cls is not None:
+                needed = list(MODEL_COLUMNS[model])
+                if dcols[:len(needed)] != needed:
+                    raise self._bad(f"driver {name!r}: model {model} takes columns {', '.join(needed)} first, "
+                                    f"the take has {', '.join(dcols) or 'none'}")
+
+    def model_of(self, name, info):
+        if "model" in info:
+            return info["model"]
+        legacy = info.get("block_type")
+        if legacy is None:
+            return None
+        if legacy in LEGACY_TYPES:
+            return LEGACY_TYPES[legacy]
+        raise self._bad(f"driver {name!r} names the device model {legacy[:80]!r}, which is not one of "
+                        f"hapticgraph's ({', '.join(MODELS)}); a take names no code")
 
     @property
     def seconds(self):
@@ -341,9 +569,33 @@ class Take:
         theirs = self.header["patch"]["signature"]
         if fingerprint(mine) != self.header["patch"]["fingerprint"] or mine != theirs:
             p = self.header["patch"]
-            raise TakeError(f"{os.path.basename(self.path)} was recorded from another patch: {p['name']!r} "
-                            f"({p['file']}: {_describe(theirs)}); {os.path.basename(patch.file)} has "
+            raise TakeError(f"{self.name} was recorded from another patch: {p.get('name', '?')!r} "
+                            f"({p.get('file', '?')}: {self._describe(theirs)}); {os.path.basename(patch.file)} has "
                             f"{_describe(mine)}")
+
+    def check_device(self, patch, name):
+        """Raise TakeError unless device `name` of this take fits device `name` of `patch` (a
+        `driver: replay` entry): the same rate and the same axes."""
+        mine = patch_signature(patch)
+        theirs = self.header["patch"]["signature"]
+        if name not in theirs["devices"]:
+            have = ", ".join(sorted(theirs["devices"])) or "none"
+            raise TakeError(f"{self.name} has no device named {name!r} (it has: {have})")
+        if self.rate != mine["rate"]:
+            raise TakeError(f"{self.name} was recorded at {self.rate:g} Hz; {os.path.basename(patch.file)} runs "
+                            f"at {mine['rate']:g} Hz")
+        if list(theirs["devices"][name]) != mine["devices"].get(name):
+            raise TakeError(f"device {name!r} of {self.name} has the axes x, v"
+                            f"{''.join(', ' + a for a in theirs['devices'][name])}; in "
+                            f"{os.path.basename(patch.file)} it has x, v"
+                            f"{''.join(', ' + a for a in mine['devices'].get(name, []))}")
+
+    @staticmethod
+    def _describe(sig):
+        try:
+            return _describe(sig)
+        except (KeyError, TypeError, ValueError):
+            return "an unreadable signature"
 
 
 class ReplayDriver(Driver):
@@ -354,8 +606,9 @@ class ReplayDriver(Driver):
     def __init__(self, name, take, info):
         self.name, self.take = name, take
         self.columns = tuple(info["columns"])
-        self.block_type = _import_type(info.get("block_type"))
+        self.block_type = MODELS.get(take.model_of(name, info))
         self.values = dict(info.get("block_values") or {})
+        self.max_force = float(self.values.get("max_force", math.inf))   # a HID device's: not in the take
         off = int(info["offset"])
         self.signal = np.ascontiguousarray(take.inputs[:, off:off + len(self.columns)])
         self.hold = not info.get("input", False)
@@ -379,20 +632,24 @@ class ReplayDriver(Driver):
             ext[k:] = self.signal[-1] if (self.hold and total) else 0.0
 
     def send(self, t0, force):
-        self.sent.append(np.array(force, dtype=np.float64))
+        # nothing reaches a hand here, but what is kept is what a device would have received
+        force = np.nan_to_num(np.asarray(force, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+        self.sent.append(np.clip(force, -self.max_force, self.max_force))
 
     def force_sent(self):
         return np.concatenate(self.sent) if self.sent else np.zeros(0)
 
 
-def ReplayDevice(name, spec):
+def ReplayDevice(name, spec, patch):
     """`driver: replay` in a device entry: `{driver: replay, file: TAKE.hgrec}` (the file is
-    relative to the patch); feeds that device from the take."""
+    relative to the patch); feeds that device from the take, checked against the patch's device."""
     path = spec.get("file")
     if not path:
         raise TakeError(f"device {name!r}: driver replay needs a take: give the entry `file: TAKE.hgrec`, "
                         "or replay a whole take with `hapticgraph run PATCH --replay TAKE.hgrec`")
-    return Take(path).driver(name)
+    take = Take(path)
+    take.check_device(patch, name)
+    return take.driver(name)
 
 
 def replay_drivers(patch, path):

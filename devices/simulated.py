@@ -7,14 +7,23 @@ anchor follows the scripted keyframes, and is pushed by the force the patch send
 
 integrated with semi-implicit (symplectic) Euler inside the kernel, every sample, so the haptic
 loop is closed in simulation with the same driver interface a real device uses.
+
+Its `max_force` (default 4 N) is at most MAX_FORCE = 50 N, the bound this model states the way a
+HID profile states its device's: about what the strongest grounded desktop haptic devices give at
+their peak, so a patch tuned on the simulation asks nothing absurd of a real device.
 """
 import collections
+import math
 
 import numpy as np
 
 from ..blocks import External, Param, State
 from ..blocks.device import Haptic, clamp_force
 from ..graph.engine import Driver
+from ..graph.profiles import SIMULATED_MAX_FORCE
+
+
+MAX_FORCE = SIMULATED_MAX_FORCE     # 50 N: the simulated device's bound on max_force (see the module's doc)
 
 
 class SimulatedHaptic(Haptic, name="simulated_haptic"):
@@ -23,7 +32,7 @@ class SimulatedHaptic(Haptic, name="simulated_haptic"):
     mass = Param(0.05, unit="kg", above=0.0, live=False, internal=True)
     hand_stiffness = Param(400.0, unit="N/m", minimum=0.0, live=False, internal=True)
     hand_damping = Param(4.0, unit="N·s/m", minimum=0.0, live=False, internal=True)
-    max_force = Param(4.0, unit="N", above=0.0, live=False, internal=True)
+    max_force = Param(4.0, unit="N", above=0.0, maximum=MAX_FORCE, live=False, internal=True)
     x0 = Param(0.0, unit="m", live=False, internal=True)
     hand_x = External()
     hand_v = External()
@@ -46,23 +55,36 @@ class SimulatedHaptic(Haptic, name="simulated_haptic"):
         return pos + vel * dt, vel
 
 
+def force_limit(name, driver, value, bound, what):
+    """A device's max_force [N], checked: a finite number > 0 and at most `bound` (DeviceError)."""
+    from . import DeviceError
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise DeviceError(f"device {name!r} ({driver}): max_force {value!r} must be a finite number of newtons > 0")
+    if value > bound:
+        raise DeviceError(f"device {name!r} ({driver}): max_force {value:g} N is above {what}, {bound:g} N")
+    return float(value)
+
+
 class SimulatedDevice(Driver):
     """Driver of one simulated device entry: supplies the hand's trajectory, records the force."""
 
     block_type = SimulatedHaptic
 
-    def __init__(self, name, spec):
+    def __init__(self, name, spec, axes=None):
+        """`axes`: the device's axes as the patch sees them (default: from `spec`), when the
+        entry was written for another driver (a HID profile's axes then come in as zeros)."""
         from ..graph.patch import device_axes
         self.name = name
         script = spec.get("script") or [{"t": 0.0, "x": 0.0}]
         self.times = np.array([float(k["t"]) for k in script])
         self.xs = self._track(script, "x")
         # other axes and buttons: keyframes that carry the key are interpolated, others skipped
-        self.axes = device_axes({name: spec}, name)
+        self.axes = list(axes) if axes is not None else device_axes({name: spec}, name)
         self.axis_tracks = [self._track(script, a) for a in self.axes]
         self.columns = ("hand_x", "hand_v") + tuple(self.axes)
         self.hold = bool(spec.get("hold", True))
-        self.max_force = float(spec.get("max_force", 4.0))
+        self.max_force = force_limit(name, "simulated", spec.get("max_force", 4.0), MAX_FORCE,
+                                     "the simulated device's bound")
         self.values = {"mass": float(spec.get("mass", 0.05)),
                        "hand_stiffness": float(spec.get("hand_stiffness", 400.0)),
                        "hand_damping": float(spec.get("hand_damping", 4.0)),

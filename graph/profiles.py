@@ -13,7 +13,9 @@ Profile format (version 1)::
     description: ...                # optional, free text
     vendor_id: 0x1209               # USB ids (a device entry may override them)
     product_id: 0x0001
-    max_force: 4.0                  # N; required with an output report; every force is clamped to it
+    max_force: 4.0                  # N; required with an output report; the device's bound: every
+                                    #   force is clamped to it, a device entry may only lower it
+                                    #   (finite, > 0, at most MAX_FORCE = 1000 N, and what the field holds)
     input:
       report_id: 1                  # 0: the device numbers no reports (no id byte in front)
       length: 12                    # bytes of report data after the id byte
@@ -54,6 +56,8 @@ SUFFIXES = (".yaml", ".yml")
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # used with fullmatch: a name is matched whole
 RESERVED = ("t", "x", "v", "force", "device", "axes", "sensor_x", "sensor_v", "estimate")
 MAX_REPORT = 4096        # bytes; USB full speed interrupt reports are ≤ 64, high speed ≤ 1024
+MAX_FORCE = 1000.0       # N: no profile may state more (the patch schema's bound on max_force)
+SIMULATED_MAX_FORCE = 50.0   # N: the simulated device's bound (hapticgraph.devices.simulated)
 
 TOP_KEYS = ("hid_profile", "name", "description", "vendor_id", "product_id", "max_force", "input", "output")
 INPUT_KEYS = ("report_id", "length", "interval", "timeout", "position", "velocity", "velocity_cutoff",
@@ -272,7 +276,11 @@ def attach_profiles(devices, base, problems):
     if not isinstance(devices, LDict):
         return
     for name, spec in devices.items():
-        if not isinstance(spec, LDict) or spec.get("driver") != "hid" or not isinstance(spec.get("profile"), str):
+        if not isinstance(spec, LDict):
+            continue
+        if spec.get("driver", "simulated") == "simulated":
+            _check_limit(spec, name, SIMULATED_MAX_FORCE, "the simulated device's bound", problems)
+        if spec.get("driver") != "hid" or not isinstance(spec.get("profile"), str):
             continue
         ref = spec["profile"]
         line = spec.lines.get("profile", spec.line)
@@ -288,6 +296,19 @@ def attach_profiles(devices, base, problems):
             problems.add(line, f"device {name!r}: HID profile {ref!r} has {len(exc.problems)} problem(s), "
                                f"listed at its own file and lines")
             problems.problems.extend(exc.problems)
+            continue
+        profile = spec.hid_profile
+        if profile.output is not None:
+            _check_limit(spec, name, profile.max_force, f"the bound its profile {profile.name!r} states", problems)
+
+
+def _check_limit(spec, name, bound, what, problems):
+    """A device entry's max_force may not exceed its device's bound (a finite number > 0 is the
+    schema's to check)."""
+    value = spec.get("max_force")
+    if _is_num(value) and 0 < value <= MAX_FORCE and value > bound:
+        problems.add(spec.lines.get("max_force", spec.line),
+                     f"device {name!r}: max_force {value:g} N is above {what}, {bound:g} N")
 
 
 # -- parsing and checking ------------------------------------------------------------------------
@@ -482,6 +503,10 @@ def _parse(doc, path, problems):
     vid = chk.integer(doc, "vendor_id", "profile", 0, 0xFFFF, required=True)
     pid = chk.integer(doc, "product_id", "profile", 0, 0xFFFF, required=True)
     max_force = chk.number(doc, "max_force", "profile", None, positive=True)
+    if max_force is not None and max_force > MAX_FORCE:
+        chk.add(_line(doc, "max_force"), f"profile.max_force: {max_force:g} N is above {MAX_FORCE:g} N, "
+                                         "the most any device may state")
+        max_force = None
 
     inp = chk.mapping(doc, "input", "profile")
     report = None
@@ -548,5 +573,5 @@ def _parse(doc, path, problems):
     return Profile(name, path, vid, pid, report, out, max_force or 0.0, description)
 
 
-__all__ = ["Field", "InputReport", "OutputReport", "Profile", "attach_profiles", "find_profile",
+__all__ = ["MAX_FORCE", "SIMULATED_MAX_FORCE", "Field", "InputReport", "OutputReport", "Profile", "attach_profiles", "find_profile",
            "load_profile", "profile_of", "shipped_dir", "shipped_profiles"]

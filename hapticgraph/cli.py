@@ -63,8 +63,9 @@ def _parser():
                      help="override a parameter (repeatable)")
     run.add_argument("--engine", choices=("compiled", "python"), default="compiled",
                      help="compiled numba kernel (default) or the reference interpreter")
-    run.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER",
-                     help="choose a device's driver (simulated, hid, replay)")
+    run.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER[,KEY=VALUE...]",
+                     help="choose a device's driver (simulated, hid, replay) and settings that override its "
+                          "entry's, e.g. finger=hid,profile=haptic_1dof,max_force=2 (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument("--replay", metavar="TAKE.hgrec",
                      help="feed every device and live input from a take made by `play --record` "
@@ -98,8 +99,9 @@ def _parser():
                       "the state of every block that did not change")
     play.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
                       help="override a parameter (repeatable)")
-    play.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER",
-                      help="choose a device's driver (simulated, hid, replay)")
+    play.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER[,KEY=VALUE...]",
+                      help="choose a device's driver (simulated, hid, replay) and settings that override its "
+                           "entry's, e.g. finger=hid,profile=haptic_1dof,max_force=2 (repeatable)")
     play.add_argument("--fade", type=float, default=0.005, metavar="SECONDS", help=argparse.SUPPRESS)
 
     _command(sub, "devices", "list sound cards and HID devices",
@@ -242,12 +244,20 @@ def _cmd_check(args):
 
 
 def _device_choices(items):
+    """`--device NAME=DRIVER[,KEY=VALUE...]` -> {name: Choice}; a bad one is a UsageError that
+    says what the driver accepts."""
+    if not items:
+        return {}
+    from .devices import DeviceError, parse_choice
     choices = {}
     for item in items:
-        name, sep, driver = item.partition("=")
-        if not sep or not name or not driver:
-            raise UsageError(f"--device {item!r}: expected NAME=DRIVER")
-        choices[name] = driver
+        try:
+            name, choice = parse_choice(item)
+        except DeviceError as exc:
+            raise UsageError(str(exc)) from None
+        if name in choices:
+            raise UsageError(f"--device {item!r}: device {name!r} is given twice")
+        choices[name] = choice
     return choices
 
 
@@ -335,15 +345,16 @@ def _cmd_play(args):
     if not 0 < args.fade <= 1:
         raise UsageError("--fade must be in (0, 1] seconds")
     latency = _parse_latency(args.latency)
-    choices = _device_choices(args.device)
-    if args.replay and choices:
+    if args.replay and args.device:
         raise UsageError("--replay feeds every device from the take; it takes no --device")
+    choices = _device_choices(args.device)
     if args.replay and args.watch:
         raise UsageError("--replay and --watch do not go together")
     patch = load(args.patch, overrides=args.overrides)
     unknown = sorted(set(choices) - set(patch.devices))
     if unknown:
-        raise UsageError(f"--device: the patch declares no device named {', '.join(unknown)}")
+        raise UsageError(f"--device: the patch declares no device named {', '.join(unknown)} "
+                         f"(its devices: {', '.join(patch.devices) or 'none'})")
     try:
         audio.sounddevice()
     except audio.AudioError as exc:
@@ -364,12 +375,17 @@ def _cmd_play(args):
         raise UsageError(str(exc)) from None
     recorder = None
     if args.record:
-        kinds = {name: (choices.get(name) or spec.get("driver", "simulated")) for name, spec in patch.devices.items()}
+        kinds = {name: (choices[name].driver if name in choices else spec.get("driver", "simulated"))
+                 for name, spec in patch.devices.items()}
         kinds.update({d.name: "live audio input" for d in live})
         try:
             recorder = Recorder(args.record, session, max(1, session.prog.channels), args.blocksize, kinds=kinds)
         except OSError as exc:
+            session.stop()
             raise UsageError(f"--record {args.record!r}: {exc.strerror or exc}") from None
+        except DeviceError as exc:
+            session.stop()
+            raise UsageError(str(exc)) from None
     try:
         player = audio.Player(session, device=out_dev, blocksize=args.blocksize, latency=latency,
                               input_device=in_dev, seconds=args.seconds, fade=args.fade, recorder=recorder)
@@ -409,6 +425,11 @@ def _cmd_play(args):
               f"{rec.frames} frames of audio to {rec.wav_path}"
               + (f"; {rec.dropped} samples DROPPED (the disk was too slow)" if rec.dropped else "")
               + (f"; inputs not recorded after a reload: {rec.inputs_stopped}" if rec.inputs_stopped else ""))
+        if rec.failed:
+            print(f"hapticgraph: error: recording stopped early: {rec.failed}; {rec.path} ({rec.rows_written} "
+                  f"samples) and {rec.wav_path} ({rec.frames} frames) keep everything written before",
+                  file=sys.stderr)
+            return 1
     if report.problem:
         print(f"hapticgraph: stopped after {report.seconds:.3f} s: {report.problem}; the force sent was "
               f"zeroed in that block and the audio muted with a {1e3 * args.fade:g} ms fade", file=sys.stderr)

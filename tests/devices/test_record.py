@@ -59,7 +59,7 @@ def test_record_then_replay_is_what_was_heard(tmp_path, write_patch):
     assert t.frames == 22050 and t.rate == 44100
     assert [c for c in t.header["columns"]] == [["finger", "hand_x"], ["finger", "hand_v"], ["finger", "force"]]
     info = t.header["drivers"]["finger"]
-    assert info["kind"] == "simulated" and info["block_type"].endswith(":SimulatedHaptic")
+    assert info["kind"] == "simulated" and info["model"] == "simulated" and "block_type" not in info
     assert info["block_values"]["max_force"] == 4.0
     assert np.any(t.force_of("finger") != 0.0)                    # the string pushed back on the finger
     rate, heard = wavfile.read(f"{take}.wav")
@@ -171,11 +171,16 @@ def test_float_wav_is_valid_at_every_flush(tmp_path):
     assert np.array_equal(got, np.concatenate([a, a[:10]]))
 
 
-def test_take_ignores_a_torn_last_row(tmp_path, write_patch):
+def test_take_with_a_torn_last_row_is_refused_with_the_fix(tmp_path, write_patch):
+    """A writer killed mid-row leaves stray bytes: refused (exit 2), naming the whole rows kept and
+    the `truncate` that keeps them."""
     env, raw, path, take = _take(tmp_path, write_patch, seconds=0.1)
     hg = f"{take}.hgrec"
+    whole = os.path.getsize(hg)
     with open(hg, "ab") as f:
-        f.write(b"\x00" * 13)                       # a writer killed mid-row
-    t = Take(hg)
-    assert t.frames == 4410
+        f.write(b"\x00" * 13)
+    with pytest.raises(TakeError, match=rf"4410 rows of 24 bytes and 13 bytes more .*truncate -s {whole} "):
+        Take(hg)
+    os.truncate(hg, whole)
+    assert Take(hg).frames == 4410
     assert take_paths("a/b.hgrec") == ("a/b.hgrec", "a/b.wav") and take_paths("a/b") == ("a/b.hgrec", "a/b.wav")
