@@ -63,8 +63,8 @@ def parse_choice(text):
     """`NAME=DRIVER[,KEY=VALUE...]` -> (name, Choice). Each VALUE is read as a YAML scalar (text
     for text settings) and checked against the driver's setting schema, like the patch file's."""
     import jsonschema
-    import yaml
-    from ..graph.source import PatchLoader
+    from ..graph.errors import Collector
+    from ..graph.source import parse_value
     name, sep, rest = text.partition("=")
     name = name.strip()
     parts = [p.strip() for p in rest.split(",")]
@@ -90,10 +90,10 @@ def parse_choice(text):
         if schema.get("type") == "string":
             value = raw.strip()
         else:
-            try:
-                value = yaml.load(raw, Loader=PatchLoader)
-            except (yaml.YAMLError, ValueError, RecursionError):
-                value = raw
+            problems = Collector("--device")     # the file's guards: budgets, no tags, finite numbers
+            ok, value = parse_value(raw, problems, 1)
+            if not ok:
+                raise DeviceError(f"{where}: {key}={raw}: {problems.problems[0].message}")
         if isinstance(value, float) and not math.isfinite(value):
             raise DeviceError(f"{where}: {key}={raw}: expected a finite number")
         try:

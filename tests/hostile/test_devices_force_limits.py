@@ -1,18 +1,12 @@
 """The hand stays safe: every device's max_force has an upper bound its profile states (a HID
 profile's max_force; the simulated device's 50 N), a device entry above it is refused at load
 naming the device, and no NaN, infinity or out-of-range force reaches a device."""
-import importlib.util
 import json
-import pathlib
 
 import pytest
 
 
-# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
-_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
-_limits = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_limits)
-assert_patch_error, run_hg, run_py = _limits.assert_patch_error, _limits.run_hg, _limits.run_py
+from hostile_env import assert_patch_error, run_hg, run_py
 
 
 HID_PATCH = """\

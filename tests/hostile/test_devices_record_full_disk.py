@@ -1,9 +1,7 @@
 """`play --record` on a full disk: a file size limit (RLIMIT_FSIZE, SIGXFSZ ignored so writes fail
 with EFBIG) stops the recording with one clear message; the music plays on to its end; both
 files stay readable — the take holds whole rows (and replays), the WAV's header matches its data."""
-import importlib.util
 import os
-import pathlib
 
 import numpy as np
 import soundfile
@@ -12,11 +10,7 @@ from audio_env import ASOUNDRC, alsa_file_env
 from hapticgraph.devices.record import Take
 
 
-# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
-_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
-_limits = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_limits)
-run_hg, run_py = _limits.run_hg, _limits.run_py
+from hostile_env import run_hg, run_py
 
 PATCH = """\
 hapticgraph: 1

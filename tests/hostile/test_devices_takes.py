@@ -1,9 +1,7 @@
 """Hostile takes (.hgrec): a take names no code — a header that names a module (`os:system`, or
 a module beside it that would write a file on import) imports nothing; a malformed take is one
 line naming the file, exit 2, no traceback; every replay path checks the take against the patch."""
-import importlib.util
 import json
-import pathlib
 import struct
 
 import numpy as np
@@ -12,11 +10,7 @@ import pytest
 from hapticgraph import load
 from hapticgraph.devices.record import MAGIC, PREAMBLE, fingerprint, header_bytes, patch_signature
 
-# the limits of tests/hostile/conftest.py, loaded under a name of its own ("conftest" is also tests/conftest.py)
-_spec = importlib.util.spec_from_file_location("hostile_limits", pathlib.Path(__file__).with_name("conftest.py"))
-_limits = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_limits)
-assert_patch_error, run_hg = _limits.assert_patch_error, _limits.run_hg
+from hostile_env import assert_patch_error, run_hg
 
 PATCH = """\
 hapticgraph: 1
