@@ -217,7 +217,7 @@ def progress_bar(total, label, enabled=None):
     if not enabled or total <= 0:
         return _NoBar()
     from tqdm import tqdm
-    return tqdm(total=total, desc=label, unit="samples", unit_scale=True, file=sys.stderr,
+    return tqdm(total=total, desc=label, unit=" samples", unit_scale=True, file=sys.stderr,
                 dynamic_ncols=True, leave=False)
 
 

@@ -84,3 +84,41 @@ def test_array_sink_keeps_what_was_written():
         rate, compile_seconds, run_seconds = 100.0, 0.0, 0.0
     r = sink.result(Done)
     assert r.audio.shape == (4, 2) and list(r.probes["p"]) == [2.0, 5.0, 8.0, 11.0]
+
+
+def _run_on_a_terminal(args):
+    """Run hapticgraph with stderr on a pseudo-terminal 100 columns wide; what the terminal showed."""
+    import fcntl
+    import os
+    import pty
+    import struct
+    import subprocess
+    import sys
+    import termios
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+    proc = subprocess.Popen([sys.executable, "-m", "hapticgraph", *map(str, args)], stderr=slave,
+                            stdout=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    os.close(slave)
+    shown = b""
+    while True:
+        try:
+            chunk = os.read(master, 1 << 16)
+        except OSError:                      # EIO: the child closed the terminal
+            break
+        if not chunk:
+            break
+        shown += chunk
+    os.close(master)
+    assert proc.wait(timeout=300) == 0, shown
+    return shown.decode("utf-8", "replace")
+
+
+def test_progress_bar_on_a_terminal_only(patches_dir, tmp_path):
+    patch = patches_dir / "karplus_strong.yaml"
+    shown = _run_on_a_terminal(["run", patch, "--seconds", 60, "--out", tmp_path / "a.wav"])
+    assert "rendering Karplus-Strong string:" in shown and "/2.65M" in shown and " samples/s]" in shown
+    quiet = _run_on_a_terminal(["run", patch, "--seconds", 60, "--out", tmp_path / "b.wav", "--quiet"])
+    assert "rendering" not in quiet and "samples/s" not in quiet
+    from hapticgraph.graph.engine import _NoBar, progress_bar
+    assert isinstance(progress_bar(1000, "x"), _NoBar)           # pytest's stderr is no terminal
