@@ -268,12 +268,13 @@ def _stream(session, seconds, sink, probes, progress, safety, stop, out):
             try:
                 rec = session.process(n)
             except SafetyStop as exc:
-                lost = any(getattr(d, "lost", False) for d in prog.drivers.values())
-                keep = exc.kept if (safety or lost) else n
+                stopping = safety or any(getattr(d, "lost", False) for d in prog.drivers.values())
+                keep = exc.kept if stopping else n
                 if keep:
                     sink.write(session.rec[:keep, :width])
                     out.samples += keep
-                if keep < n:
+                    bar.update(keep)
+                if stopping:
                     raise
                 continue
             sink.write(rec[:, :width])

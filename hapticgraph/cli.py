@@ -221,13 +221,42 @@ def _check_output(option, path, inputs):
     return path
 
 
+def _render_to(sink, patch, args, choices, replayed, stop):
+    """Stream the render into the sink; (Streamed, safety problem, output failure), or None when
+    interrupted before rendering began (the sink discarded)."""
+    from .devices import DeviceError, open_drivers
+    from .devices.files import OutputError
+    from .graph.engine import SafetyStop, stream
+    try:
+        drivers = replayed if replayed is not None else open_drivers(patch, choices)
+        streamed = stream(patch, args.seconds, sink, probes=args.probe, engine=args.engine,
+                          progress=False if args.quiet else None, drivers=drivers, safety=True, stop=stop)
+        return streamed, None, None
+    except (PlanError, DeviceError) as exc:
+        sink.discard()
+        raise UsageError(str(exc)) from None
+    except KeyboardInterrupt as exc:
+        if not stop.rendering or getattr(exc, "streamed", None) is None:
+            sink.discard()
+            print("hapticgraph: interrupted before rendering began; nothing written", file=sys.stderr)
+            return None
+        return exc.streamed, "interrupted", None
+    except SafetyStop as exc:
+        return exc.streamed, str(exc), None
+    except OutputError as exc:
+        return exc.streamed, None, str(exc)
+    except BaseException:                  # a bug: keep what was made, then let main report it
+        sink.close()
+        raise
+
+
 def _cmd_run(args):
     import math
     import signal
-    from .devices import DeviceError, open_drivers
-    from .devices.files import FileSink, OutputError
+    from .devices import DeviceError
+    from .devices.files import FileSink
     from .devices.wav import AudioFileError
-    from .graph.engine import SafetyStop, StopRequest, stream
+    from .graph.engine import StopRequest
     choices = _device_choices(args.device)
     if args.seconds is not None and not (math.isfinite(args.seconds) and args.seconds > 0):
         raise UsageError(f"--seconds {args.seconds:g}: expected a positive, finite number of seconds")
@@ -272,31 +301,15 @@ def _cmd_run(args):
     stop = StopRequest()
     caught = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     previous = {s: signal.signal(s, stop.request) for s in caught}
-    streamed, problem, failure = None, None, None
-    try:
-        drivers = replayed if args.replay else open_drivers(patch, choices)
-        streamed = stream(patch, args.seconds, sink, probes=args.probe, engine=args.engine,
-                          progress=False if args.quiet else None, drivers=drivers, safety=True, stop=stop)
-    except (PlanError, DeviceError) as exc:
-        sink.discard()
-        raise UsageError(str(exc)) from None
-    except KeyboardInterrupt as exc:
-        if not getattr(stop, "rendering", False) or getattr(exc, "streamed", None) is None:
-            sink.discard()
-            print("hapticgraph: interrupted before rendering began; nothing written", file=sys.stderr)
+    try:         # the handlers stay until the files are in place: a second signal loses nothing either
+        outcome = _render_to(sink, patch, args, choices, replayed if args.replay else None, stop)
+        if outcome is None:
             return 1
-        streamed, problem = exc.streamed, "interrupted"
-    except SafetyStop as exc:
-        streamed, problem = exc.streamed, str(exc)
-    except OutputError as exc:
-        streamed, failure = exc.streamed, str(exc)
-    except BaseException:                  # a bug: keep what was made, then let main report it
-        sink.close()
-        raise
+        streamed, problem, failure = outcome
+        written, errors = sink.close()
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-    written, errors = sink.close()
     rate = streamed.rate
     seconds = streamed.samples / rate
     where = ", ".join(path for path, _ in written) or "-"

@@ -30,7 +30,7 @@ def _child_limits(file_size=None):
     return apply
 
 
-def _hg(*args, **kwargs):
+def _hg(*args):
     return [sys.executable, "-m", "hapticgraph", *map(str, args)]
 
 
