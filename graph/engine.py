@@ -239,7 +239,7 @@ def stream(patch, seconds, sink, probes=(), engine="compiled", chunk=1 << 14, pr
     try:
         width = len(probes) + len(patch.devices) + sum(len(b.inputs) for b in patch.blocks.values()
                                                        if getattr(b.cls, "audio_sink", False))
-        chunk = max(1, min(int(chunk), max(1024, (32 << 20) // (8 * width))))   # rec ≤ ~32 MB
+        chunk = max(1, min(int(chunk), max(1024, (32 << 20) // (8 * max(1, width)))))   # rec ≤ ~32 MB
         session = Session(patch, probes, drivers, engine, blocksize=chunk,
                           runaway=runaway if safety else np.inf)
         out.compile_seconds = session.runner.compile_seconds

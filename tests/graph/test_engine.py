@@ -122,3 +122,8 @@ def test_progress_bar_on_a_terminal_only(patches_dir, tmp_path):
     assert "rendering" not in quiet and "samples/s" not in quiet
     from hapticgraph.graph.engine import _NoBar, progress_bar
     assert isinstance(progress_bar(1000, "x"), _NoBar)           # pytest's stderr is no terminal
+
+
+def test_a_patch_with_nothing_to_keep_still_renders(write_patch):
+    r = render(load(write_patch("hapticgraph: 1\nblocks:\n  g: {type: gain}\nconnect: []\n")), 0.01)
+    assert r.audio.shape == (441, 0) and r.probes == {}
