@@ -1,37 +1,203 @@
-"""Drivers that feed a patch from files: a WAV file into an `audio_in` block."""
+"""Files in and out of an offline run, all streamed: a WAV (or FLAC, OGG…) file into an `audio_in`
+block, resampled block by block; and the sink of `hapticgraph run`, which writes the audio and an
+.npz of probes as the blocks come, so memory stays flat whatever the length."""
 import os
+import zipfile
 
 import numpy as np
+import soundfile
 
 from ..graph.engine import Driver
-from .wav import read_wav
+from .wav import AudioWriter, beside, put_in_place
+
+IN_MEMORY_FRAMES = 1 << 20     # a shorter input file is read whole (8 MB at most); a longer one streams
+MAX_SPAN = 1 << 16             # frames read at once for one piece of a block
 
 
 class WavInput(Driver):
-    """Plays one channel of a WAV file into an audio_in block, resampled (linearly) to the patch rate."""
+    """Plays one channel of an audio file into an audio_in block, resampled (linearly) to the patch
+    rate as it plays: each block reads only the frames it needs, so a file at 1 Hz costs no more
+    than one at the patch's rate. Past the end: silence, or the file again with `loop`."""
 
     columns = ("sample",)
 
     def __init__(self, path, channel=0, loop=False):
-        data, rate = read_wav(path)
-        if channel >= data.shape[1]:
-            raise ValueError(f"{os.path.basename(path)} has {data.shape[1]} channel(s); channel {channel} asked")
-        self.data, self.file_rate, self.loop = data[:, channel].copy(), float(rate), loop
-        self.signal = self.data
+        self.path, self.channel, self.loop = str(path), int(channel), loop
+        name = os.path.basename(self.path)
+        try:
+            with soundfile.SoundFile(self.path) as f:
+                channels, self.frames, self.file_rate = f.channels, f.frames, float(f.samplerate)
+                if channels < 1:
+                    raise ValueError(f"{name} has no audio channel")
+                if self.channel >= channels:
+                    raise ValueError(f"{name} has {channels} channel(s); channel {self.channel} asked")
+                if self.file_rate <= 0:
+                    raise ValueError(f"{name} has a sample rate of {f.samplerate}")
+                self.data = None
+                if self.frames <= IN_MEMORY_FRAMES:
+                    self.data = f.read(dtype="float64", always_2d=True)[:, self.channel].copy()
+                    self.frames = len(self.data)
+        except (soundfile.SoundFileError, RuntimeError, TypeError) as exc:
+            raise ValueError(f"{name} is not a readable audio file: {exc}") from None
+        self.rate = self.file_rate
+        self.length = self.frames
+        self.file = None
 
     def start(self, rate):
-        if rate != self.file_rate and len(self.data) > 1:
-            n = int(round(len(self.data) * rate / self.file_rate))
-            self.signal = np.interp(np.arange(n) * self.file_rate / rate, np.arange(len(self.data)), self.data)
+        self.rate = float(rate)
+        if self.rate != self.file_rate and self.frames > 1:
+            self.length = int(round(self.frames * self.rate / self.file_rate))
         else:
-            self.signal = self.data
+            self.length = self.frames
+        if self.data is None and self.file is None:
+            self.file = soundfile.SoundFile(self.path)
+
+    def stop(self):
+        if self.file is not None:
+            self.file.close()
+            self.file = None
 
     def fill(self, t0, ext):
-        n = ext.shape[0]
-        idx = t0 + np.arange(n)
-        if self.loop and len(self.signal):
-            ext[:, 0] = self.signal[idx % len(self.signal)]
-        else:
-            ext[:, 0] = 0.0
-            inside = idx < len(self.signal)
-            ext[inside, 0] = self.signal[idx[inside]]
+        out = ext[:, 0]
+        out[:] = 0.0
+        n, length = out.shape[0], self.length
+        if not length:
+            return
+        if self.loop:
+            first = 0
+            while first < n:            # pieces that do not wrap around the end of the file
+                m = (t0 + first) % length
+                k = min(n - first, length - m)
+                self._segment(m, out[first:first + k])
+                first += k
+        elif t0 < length:
+            self._segment(t0, out[:min(n, length - t0)])
+
+    def _segment(self, m0, out):
+        """out[i] = the file at output sample m0 + i (all inside the resampled length)."""
+        if self.rate == self.file_rate or self.frames <= 1:
+            out[:] = self._frames(m0, m0 + out.shape[0] - 1)
+            return
+        ratio = self.file_rate / self.rate
+        step = max(1, int(MAX_SPAN / ratio))
+        for first in range(0, out.shape[0], step):
+            m = np.arange(m0 + first, m0 + min(out.shape[0], first + step), dtype=np.float64)
+            pos = m * self.file_rate / self.rate           # as np.interp over the whole file would
+            lo = min(int(pos[0]), self.frames - 1)
+            hi = min(int(pos[-1]) + 1, self.frames - 1)
+            out[first:first + m.shape[0]] = np.interp(pos, np.arange(lo, hi + 1, dtype=np.float64),
+                                                      self._frames(lo, hi))
+
+    def _frames(self, lo, hi):
+        """The channel's frames lo … hi (inclusive)."""
+        if self.data is not None:
+            return self.data[lo:hi + 1]
+        self.file.seek(lo)
+        return self.file.read(hi + 1 - lo, dtype="float64", always_2d=True)[:, self.channel]
+
+
+class ProbeWriter:
+    """Probe columns streamed to a temporary file beside the target (each block stored probe after
+    probe), assembled by `close()` into an .npz — one .npy per probe and `rate`, as numpy.savez
+    writes — a chunk at a time, then renamed into place. Memory stays one block whatever the length."""
+
+    def __init__(self, path, rate, probes):
+        self.path, self.rate, self.probes = str(path), float(rate), list(probes)
+        self.tmp = beside(self.path, ".raw")
+        self.raw = open(self.tmp, "wb")
+        self.blocks = []           # (offset, samples) of each block stored whole
+        self.samples = self.offset = 0
+
+    def write(self, block):
+        data = np.ascontiguousarray(block.T, dtype="<f8")
+        self.raw.write(memoryview(data).cast("B"))
+        self.raw.flush()
+        self.blocks.append((self.offset, block.shape[0]))
+        self.offset += data.nbytes
+        self.samples += block.shape[0]
+
+    def close(self):
+        """Assemble the .npz from every block stored whole and rename it into place."""
+        if self.raw is None:
+            return self.samples
+        self.raw.close()
+        self.raw = None
+        npz = beside(self.path)
+        try:
+            with open(self.tmp, "rb") as raw, zipfile.ZipFile(npz, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+                with zf.open("rate.npy", "w") as entry:
+                    np.lib.format.write_array(entry, np.array(self.rate))
+                for j, label in enumerate(self.probes):
+                    with zf.open(f"{label}.npy", "w", force_zip64=True) as entry:
+                        np.lib.format.write_array_header_1_0(
+                            entry, {"descr": "<f8", "fortran_order": False, "shape": (self.samples,)})
+                        for offset, n in self.blocks:
+                            raw.seek(offset + 8 * j * n)
+                            entry.write(raw.read(8 * n))
+            put_in_place(npz, self.path)
+        except BaseException:
+            os.unlink(npz)
+            raise
+        finally:
+            os.unlink(self.tmp)
+        return self.samples
+
+    def discard(self):
+        if self.raw is not None:
+            self.raw.close()
+            self.raw = None
+            os.unlink(self.tmp)
+
+
+class OutputError(Exception):
+    """Writing an output failed (a full disk, a file-size limit…); what was written is kept."""
+
+
+class FileSink:
+    """The sink of `hapticgraph run`: the audio to `audio_path` (format by extension, see
+    devices.wav.audio_format) and the probes to an .npz, both opened before rendering so a bad
+    path fails before any work, both put in place by `close()` — after a stop or a failure too."""
+
+    def __init__(self, audio_path, probes_path, rate, channels, probes, subtype=None):
+        self.channels, self.probe_names = channels, list(probes)
+        self.audio = AudioWriter(audio_path, rate, channels, subtype) if audio_path and channels else None
+        try:
+            self.probes = ProbeWriter(probes_path, rate, probes) if probes_path and probes else None
+        except BaseException:
+            if self.audio is not None:
+                self.audio.discard()
+            raise
+
+    def start(self, rate, channels, probes, total):
+        assert channels == self.channels and list(probes) == self.probe_names, "the patch changed"
+
+    def write(self, block):
+        for writer, part in ((self.audio, block[:, :self.channels]), (self.probes, block[:, self.channels:])):
+            if writer is None:
+                continue
+            try:
+                writer.write(part)
+            except (OSError, RuntimeError, soundfile.SoundFileError) as exc:
+                reason = getattr(exc, "strerror", None) or str(exc).strip().rstrip(".")
+                raise OutputError(f"cannot write {writer.path} ({reason}; is the disk full?)") from None
+
+    @property
+    def peak(self):
+        return self.audio.peak if self.audio is not None else 0.0
+
+    def close(self):
+        """Finish every output; returns [(path, samples it holds)] and the errors met, as text."""
+        done, errors = [], []
+        for writer in (self.audio, self.probes):
+            if writer is None:
+                continue
+            try:
+                done.append((writer.path, writer.close()))
+            except (OSError, RuntimeError, soundfile.SoundFileError) as exc:
+                errors.append(f"cannot finish {writer.path}: {getattr(exc, 'strerror', None) or exc}")
+        return done, errors
+
+    def discard(self):
+        for writer in (self.audio, self.probes):
+            if writer is not None:
+                writer.discard()

@@ -1,5 +1,6 @@
-"""The offline engine: run a patch's kernel (or the reference interpreter) in chunks, as fast as
-possible, and collect the audio and the probes."""
+"""The offline engine: run a patch's kernel (or the reference interpreter) block by block, as fast
+as possible, and hand each block to a sink: `render` keeps arrays, `run` streams files
+(hapticgraph.devices.files.FileSink), so memory stays flat whatever the length."""
 import sys
 import time
 
@@ -58,37 +59,24 @@ def make_runner(prog, engine="compiled"):
     raise ValueError(f"unknown engine {engine!r}; use one of {', '.join(ENGINES)}")
 
 
-class Progress:
-    """A one-line progress bar on an interactive stderr; silent otherwise."""
-
-    def __init__(self, total, label, enabled=None, stream=None):
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
-        self.total, self.label, self.start = total, label, time.perf_counter()
-
-    def __call__(self, done):
-        if not self.enabled or self.total <= 0:
-            return
-        frac = done / self.total
-        bar = "#" * int(30 * frac)
-        self.stream.write(f"\r{self.label} [{bar:<30}] {100 * frac:5.1f}% "
-                          f"{time.perf_counter() - self.start:6.1f} s")
-        if done >= self.total:
-            self.stream.write("\n")
-        self.stream.flush()
-
 
 class SafetyStop(Exception):
     """The run was stopped to protect the player: a NaN, an infinity, a runaway or a lost device.
-    The force sent in the block where it happened was zero."""
+    The force sent in the block where it happened was zero. `kept`: the samples of that block
+    rendered before the one where it was caught (0 for a lost device: its inputs are stale)."""
+
+    def __init__(self, message, kept=0):
+        super().__init__(message)
+        self.kept = kept
 
 
 class Session:
     """A patch running block by block: the one loop behind both `run` (offline) and `play`
     (an audio callback). Each `process(n)`: edits queued since the last block are applied, the
-    drivers fill the device inputs, the kernel runs n samples, the output is checked (NaN,
-    infinity, runaway) and the forces go to the drivers — or zeros, and SafetyStop, if the check
-    failed or a device was lost. Nothing is allocated per block.
+    drivers fill the device inputs, the kernel runs n samples, the model is checked (a NaN or an
+    infinity anywhere; a runaway in the audio or in a force sent to a device — never in a probe,
+    which may watch anything) and the forces go to the drivers — or zeros, and SafetyStop, if the
+    check failed or a device was lost. Nothing is allocated per block.
     """
 
     def __init__(self, patch, probes=(), drivers=None, engine="compiled", blocksize=1 << 14,
@@ -106,7 +94,9 @@ class Session:
             columns.setdefault(device, []).append(k)
         self.fills = [(prog.drivers[d], slice(cols[0], cols[-1] + 1)) for d, cols in columns.items()]
         self.sends = [(prog.drivers[d], col) for d, col in prog.device_records]
-        self.checked = prog.channels + len(probes)   # columns that must stay finite and bounded
+        # the runaway check's columns: the audio, and the forces sent (the last columns of rec)
+        self.forces = min((col for _, col in prog.device_records), default=len(prog.records))
+        self.state_owner = [bp.name for bp in prog.plans for _ in bp.states]
         self.t = 0
         self.edits = []
         self.started = False
@@ -143,7 +133,7 @@ class Session:
             driver.fill(t0, ext[:, cols])
         self.runner.run(t0, rec, ext)
         self.t = t0 + n
-        problem = self._check(rec)
+        problem, kept = self._check(rec, t0)
         for driver, col in self.sends:
             if problem is None and not getattr(driver, "lost", False):
                 driver.send(t0, rec[:, col])
@@ -152,66 +142,180 @@ class Session:
         if problem is None:
             lost = [d for d in self.prog.drivers.values() if getattr(d, "lost", False)]
             if lost:
-                problem = f"device {getattr(lost[0], 'name', '?')!r} stopped answering: {lost[0].lost}"
+                problem, kept = f"device {getattr(lost[0], 'name', '?')!r} stopped answering: {lost[0].lost}", 0
         if problem is not None:
-            raise SafetyStop(problem)
+            raise SafetyStop(problem, kept)
         return rec
 
-    def _check(self, rec):
+    def _check(self, rec, t0):
+        """(problem, samples before it) — (None, n) when the block is sound."""
+        n = rec.shape[0]
         if not np.isfinite(rec).all():           # one pass; find the culprit only when it fails
-            col = int(np.argmin(np.isfinite(rec).all(axis=0)))
-            column = rec[:, col]
-            i = int(np.argmin(np.isfinite(column)))
-            return (f"numerical blow-up: {self.prog.records[col][0]} is {column[i]} at "
-                    f"{(self.t - rec.shape[0] + i) / self.rate:.4f} s")
-        k = self.checked
-        if k and np.isfinite(self.runaway):
-            every = rec[:, :k]
-            if np.abs(every).max() > self.runaway:
-                col = int(np.argmax(np.abs(every).max(axis=0)))
-                return (f"runaway: {self.prog.records[col][0]} reached {np.abs(every[:, col]).max():.3g}, "
-                        f"over the limit {self.runaway:g}")
-        return None
+            bad = ~np.isfinite(rec)
+            i = int(np.argmax(bad.any(axis=1)))
+            col = int(np.argmax(bad[i]))
+            return (f"numerical blow-up: {self.prog.records[col][0]} is {rec[i, col]} at "
+                    f"{(t0 + i) / self.rate:.4f} s"), i
+        if np.isfinite(self.runaway):
+            for first, last in ((0, self.prog.channels), (self.forces, rec.shape[1])):
+                part = rec[:, first:last]
+                if part.shape[1] and np.abs(part).max() > self.runaway:
+                    over = np.abs(part) > self.runaway
+                    i = int(np.argmax(over.any(axis=1)))
+                    col = first + int(np.argmax(over[i]))
+                    return (f"runaway: {self.prog.records[col][0]} reached {abs(rec[i, col]):.3g} at "
+                            f"{(t0 + i) / self.rate:.4f} s, over the limit {self.runaway:g}"), i
+        state = self.prog.state
+        if not np.isfinite(state).all():
+            slot = int(np.argmin(np.isfinite(state)))
+            owner = self.state_owner[slot] if slot < len(self.state_owner) else "?"
+            return f"numerical blow-up: the state of block {owner!r} is {state[slot]}", n
+        return None, n
+
+
+class Streamed:
+    """What `stream` did: `samples` handed to the sink, `rate`, `compile_seconds`, `run_seconds`,
+    and `stopped`: None, or the signal number whose request ended the run early."""
+
+    def __init__(self, rate=0.0):
+        self.samples, self.rate, self.stopped = 0, rate, None
+        self.compile_seconds = self.run_seconds = 0.0
+
+
+class ArraySink:
+    """Keeps every block in arrays: the sink of `render`."""
+
+    def start(self, rate, channels, probes, total):
+        self.channels, self.probes, self.count = channels, list(probes), 0
+        self.audio = np.zeros((total, channels))
+        self.columns = np.zeros((len(self.probes), total))
+
+    def write(self, block):
+        n, k = block.shape[0], self.channels
+        self.audio[self.count:self.count + n] = block[:, :k]
+        self.columns[:, self.count:self.count + n] = block[:, k:].T
+        self.count += n
+
+    def result(self, streamed):
+        upto = self.count
+        probes = {label: self.columns[j, :upto] for j, label in enumerate(self.probes)}
+        return Render(self.audio[:upto], probes, streamed.rate, streamed.compile_seconds, streamed.run_seconds)
+
+
+class _NoBar:
+    def update(self, n):
+        pass
+
+    def close(self):
+        pass
+
+
+def progress_bar(total, label, enabled=None):
+    """A tqdm bar on stderr (samples, rate, ETA) when it is a terminal, or when `enabled`."""
+    if enabled is None:
+        enabled = sys.stderr.isatty()
+    if not enabled or total <= 0:
+        return _NoBar()
+    from tqdm import tqdm
+    return tqdm(total=total, desc=label, unit=" samples", unit_scale=True, file=sys.stderr,
+                dynamic_ncols=True, leave=False)
+
+
+def stream(patch, seconds, sink, probes=(), engine="compiled", chunk=1 << 14, progress=None, drivers=None,
+           safety=False, runaway=1e3, stop=None):
+    """Render `seconds` of a patch block by block into `sink`; returns a Streamed.
+
+    `sink.start(rate, channels, probes, total)` comes first, then `sink.write(block)` for each
+    block in order: a (n × channels + len(probes)) view, the audio then the probes, valid only
+    during the call. A block with a NaN, an infinity or (with `safety`) a value over `runaway`
+    sends zero force; with `safety` the run then stops with SafetyStop after handing the sink
+    every sample before the one where it was caught. A lost device always stops it. `stop`, a
+    StopRequest, ends the run at the next block boundary (see there). Any exception leaving
+    here carries `.streamed`, the Streamed so far.
+    """
+    if engine == "python":
+        chunk = min(chunk, 4096)
+    out = Streamed(float(patch.rate))
+    try:
+        width = len(probes) + len(patch.devices) + sum(len(b.inputs) for b in patch.blocks.values()
+                                                       if getattr(b.cls, "audio_sink", False))
+        chunk = max(1, min(int(chunk), max(1024, (32 << 20) // (8 * max(1, width)))))   # rec ≤ ~32 MB
+        session = Session(patch, probes, drivers, engine, blocksize=chunk,
+                          runaway=runaway if safety else np.inf)
+        out.compile_seconds = session.runner.compile_seconds
+        if stop is not None:
+            stop.rendering = True
+        _stream(session, seconds, sink, probes, progress, safety, stop, out)
+    except BaseException as exc:
+        exc.streamed = out
+        raise
+    return out
+
+
+def _stream(session, seconds, sink, probes, progress, safety, stop, out):
+    prog = session.prog
+    total = int(round(seconds * prog.rate))
+    width = prog.channels + len(probes)
+    sink.start(prog.rate, prog.channels, probes, total)
+    bar = progress_bar(total, f"rendering {prog.patch.name}", progress)
+    start = time.perf_counter()
+    try:
+        while out.samples < total:
+            if stop is not None and stop.signum is not None:
+                out.stopped = stop.signum
+                break
+            n = min(session.blocksize, total - out.samples)
+            try:
+                rec = session.process(n)
+            except SafetyStop as exc:
+                stopping = safety or any(getattr(d, "lost", False) for d in prog.drivers.values())
+                keep = exc.kept if stopping else n
+                if keep:
+                    sink.write(session.rec[:keep, :width])
+                    out.samples += keep
+                    bar.update(keep)
+                if stopping:
+                    raise
+                continue
+            sink.write(rec[:, :width])
+            out.samples += n
+            bar.update(n)
+    finally:
+        out.run_seconds = time.perf_counter() - start
+        bar.close()
+        session.stop()
+
+
+class StopRequest:
+    """A stop asked for from a signal handler (`request` is one): the render ends at the next block
+    boundary, keeping every block made. Asked before rendering began (while compiling), it raises
+    KeyboardInterrupt at once: there is nothing yet to keep."""
+
+    def __init__(self):
+        self.signum, self.rendering = None, False
+
+    def request(self, signum, frame=None):
+        self.signum = signum
+        if not self.rendering:
+            raise KeyboardInterrupt
 
 
 def render(patch, seconds, probes=(), engine="compiled", chunk=1 << 14, progress=None, drivers=None,
            safety=False, runaway=1e3):
-    """Render `seconds` of a patch offline; returns a Render.
+    """Render `seconds` of a patch offline into arrays; returns a Render.
 
     `drivers` maps each device name of the patch to a Driver (hapticgraph.render supplies the
     simulated ones); the kernel runs in chunks, the drivers exchange inputs and forces between.
-    A block with a NaN, an infinity or (with `safety`) a value over `runaway` sends zero force.
-    With `safety` the render then stops: SafetyStop is raised with `.result`, the Render of
-    everything before that block (its audio is not worth keeping). A lost device always stops it.
+    A block with a NaN, an infinity or (with `safety`) a value over `runaway` in the audio or a
+    force sends zero force. With `safety` the render then stops: SafetyStop is raised with
+    `.result`, the Render of everything before the sample where it was caught. A lost device
+    always stops it; KeyboardInterrupt likewise carries `.result`.
     """
-    if engine == "python":
-        chunk = min(chunk, 4096)
-    session = Session(patch, probes, drivers, engine, blocksize=chunk, runaway=runaway if safety else np.inf)
-    prog = session.prog
-    total = int(round(seconds * prog.rate))
-    rec = np.zeros((total, len(prog.records)))
-    bar = Progress(total, f"rendering {patch.name}", enabled=progress)
-    start = time.perf_counter()
-
-    def result(upto):
-        audio = np.ascontiguousarray(rec[:upto, :prog.channels])
-        probed = {label: rec[:upto, prog.channels + k].copy() for k, label in enumerate(probes)}
-        return Render(audio, probed, prog.rate, session.runner.compile_seconds, time.perf_counter() - start)
-
+    sink = ArraySink()
     try:
-        for begin in range(0, total, chunk):
-            end = min(total, begin + chunk)
-            try:
-                rec[begin:end] = session.process(end - begin)
-            except SafetyStop as stop:
-                rec[begin:end] = session.rec[: end - begin]
-                if safety or any(getattr(d, "lost", False) for d in prog.drivers.values()):
-                    stop.result = result(begin)
-                    raise
-            except KeyboardInterrupt as interrupt:
-                interrupt.result = result(begin)
-                raise
-            bar(end)
-    finally:
-        session.stop()
-    return result(total)
+        streamed = stream(patch, seconds, sink, probes, engine, chunk, progress, drivers, safety, runaway)
+    except (SafetyStop, KeyboardInterrupt) as exc:
+        if hasattr(sink, "audio"):
+            exc.result = sink.result(exc.streamed)
+        raise
+    return sink.result(streamed)

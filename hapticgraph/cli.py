@@ -55,7 +55,8 @@ def _parser():
     run.add_argument("patch")
     run.add_argument("--seconds", type=float, default=None,
                      help="length to render (default 2; with --replay, the take's length)")
-    run.add_argument("--out", help="WAV file to write (default: the patch's name, .wav, here)")
+    run.add_argument("--out", help="audio file to write, its format chosen by the extension: .wav, .flac, "
+                                    ".ogg, .mp3, .aiff (default: the patch's name, .wav, here)")
     run.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT",
                      help="record a port (repeatable); a cell's port is name[i, j].port")
     run.add_argument("--probes", metavar="FILE.npz", help="where the probes go (default: beside the WAV)")
@@ -67,6 +68,9 @@ def _parser():
                      help="choose a device's driver (simulated, hid, replay) and settings that override its "
                           "entry's, e.g. finger=hid,profile=haptic_1dof,max_force=2 (repeatable)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--subtype", metavar="PCM_16|PCM_24|FLOAT", type=str.upper,
+                     help="sample format of --out, in soundfile's names (default: FLOAT for WAV and "
+                          "AIFF, PCM_24 for FLAC)")
     run.add_argument("--replay", metavar="TAKE.hgrec",
                      help="feed every device and live input from a take made by `play --record` "
                           "(--seconds defaults to the take's length)")
@@ -261,16 +265,101 @@ def _device_choices(items):
     return choices
 
 
-def _cmd_run(args):
+def _input_files(patch, replay=None):
+    """Every file a run reads: the patch, its plugin and block modules, audio_in files, takes."""
+    import inspect
+    base = os.path.dirname(os.path.abspath(patch.file))
+    files = [patch.file]
+    plugins = patch.doc.get("plugins") if isinstance(patch.doc, dict) else None
+    files += [os.path.join(base, p) for p in plugins or () if isinstance(p, str) and p.endswith(".py")]
+    for inst in patch.blocks.values():
+        try:
+            files.append(inspect.getfile(inst.cls))
+        except (TypeError, OSError):
+            pass
+        if inst.cls.type_name == "audio_in" and inst.values.get("file"):
+            files.append(os.path.join(base, inst.values["file"]))
+    files += [os.path.join(base, spec["file"]) for spec in patch.devices.values()
+              if isinstance(spec, dict) and isinstance(spec.get("file"), str)]
+    if replay:
+        from .devices.record import take_paths
+        files += [replay, *take_paths(replay)]
+    return files
+
+
+def _same_file(a, b):
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _check_output(option, path, inputs):
+    """Refuse, before any work, an output that would overwrite an input or cannot be written;
+    returns the path to write (a symbolic link is written through)."""
+    for used in inputs:
+        if _same_file(path, used):
+            raise UsageError(f"{option} {path!r} is a file this run reads ({os.path.basename(used)}); "
+                             f"choose another name")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise UsageError(f"{option} {path!r}: the folder {os.path.dirname(path) or '.'!r} does not exist")
+    if os.path.lexists(path):
+        if os.path.isdir(path):
+            raise UsageError(f"{option} {path!r} is a folder")
+        if not os.path.isfile(path):
+            raise UsageError(f"{option} {path!r} exists and is not a regular file (a device or a pipe)")
+        path = os.path.realpath(path)
+    if not os.access(os.path.dirname(os.path.abspath(path)), os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path!r}: the folder is not writable")
+    return path
+
+
+def _render_to(sink, patch, args, choices, replayed, stop):
+    """Stream the render into the sink; (Streamed, safety problem, output failure), or None when
+    interrupted before rendering began (the sink discarded)."""
     from .devices import DeviceError, open_drivers
-    from .devices.wav import write_wav
-    from .graph.engine import SafetyStop, render
-    import numpy as np
+    from .devices.files import OutputError
+    from .graph.engine import SafetyStop, stream
+    try:
+        drivers = replayed if replayed is not None else open_drivers(patch, choices)
+        streamed = stream(patch, args.seconds, sink, probes=args.probe, engine=args.engine,
+                          progress=False if args.quiet else None, drivers=drivers, safety=True, stop=stop)
+        return streamed, None, None
+    except (PlanError, DeviceError) as exc:
+        sink.discard()
+        raise UsageError(str(exc)) from None
+    except KeyboardInterrupt as exc:
+        if not stop.rendering or getattr(exc, "streamed", None) is None:
+            sink.discard()
+            print("hapticgraph: interrupted before rendering began; nothing written", file=sys.stderr)
+            return None
+        return exc.streamed, "interrupted", None
+    except SafetyStop as exc:
+        return exc.streamed, str(exc), None
+    except OutputError as exc:
+        return exc.streamed, None, str(exc)
+    except BaseException:                  # a bug: keep what was made, then let main report it
+        sink.close()
+        raise
+
+
+def _cmd_run(args):
+    import math
+    import signal
+    from .devices import DeviceError
+    from .devices.files import FileSink
+    from .devices.wav import AudioFileError
+    from .graph.engine import StopRequest
     choices = _device_choices(args.device)
-    if args.seconds is not None and args.seconds <= 0:
-        raise UsageError("--seconds must be positive")
+    if args.seconds is not None and not (math.isfinite(args.seconds) and args.seconds > 0):
+        raise UsageError(f"--seconds {args.seconds:g}: expected a positive, finite number of seconds")
     if args.replay and choices:
         raise UsageError("--replay feeds every device from the take; it takes no --device")
+    if args.probes and not args.probes.lower().endswith(".npz"):
+        raise UsageError(f"--probes {args.probes!r}: the probes are written as .npz; name a FILE.npz")
     patch = load(args.patch, overrides=args.overrides)
     if args.replay:
         from .devices.record import replay_drivers
@@ -282,42 +371,64 @@ def _cmd_run(args):
             args.seconds = take.seconds
     if args.seconds is None:
         args.seconds = 2.0
+    if round(args.seconds * patch.rate) < 1:
+        raise UsageError(f"--seconds {args.seconds:g} is less than one sample at {patch.rate:g} Hz")
     stem = os.path.splitext(os.path.basename(args.patch))[0]
     out = args.out or f"{stem}.wav"
-    stopped = None
-    try:
-        drivers = replayed if args.replay else open_drivers(patch, choices)
-        result = render(patch, args.seconds, probes=args.probe, engine=args.engine,
-                        progress=False if args.quiet else None, drivers=drivers, safety=True)
-    except (PlanError, DeviceError) as exc:
-        raise UsageError(str(exc)) from None
-    except (SafetyStop, KeyboardInterrupt) as exc:
-        # the force was already zeroed; keep what was rendered
-        result = getattr(exc, "result", None)
-        stopped = str(exc) or "interrupted"
-        if result is None:
-            raise
-    written = []
-    if result.audio.shape[1]:
-        write_wav(out, result.audio, result.rate)
-        written.append(out)
+    channels = _audio_channels(patch)
+    inputs = _input_files(patch, args.replay)
+    audio_path = _check_output("--out", out, inputs) if channels or args.out else None
+    probes_path = None
     if args.probe:
-        probes_path = args.probes or os.path.splitext(out)[0] + ".npz"
-        np.savez(probes_path, rate=result.rate, **result.probes)
-        written.append(probes_path)
-    if not written:
+        probes_path = _check_output("--probes", args.probes or os.path.splitext(out)[0] + ".npz", inputs)
+        if audio_path and channels and _same_file(os.path.abspath(probes_path), os.path.abspath(audio_path)):
+            raise UsageError(f"--probes {probes_path!r} and --out name the same file")
+    if not channels and not args.probe:
         print(f"hapticgraph: {args.patch} has no audio_out block and no --probe was given; nothing written",
               file=sys.stderr)
-    finite = result.audio[np.isfinite(result.audio)]
-    peak = float(np.max(np.abs(finite))) if finite.size else 0.0
-    seconds = result.audio.shape[0] / result.rate
-    print(f"{args.patch}: {seconds:g} s at {result.rate:g} Hz ({args.engine}; compile "
-          f"{result.compile_seconds:.2f} s, run {result.run_seconds:.2f} s), peak {peak:.4g} -> {', '.join(written) or '-'}")
-    if stopped:
-        print(f"hapticgraph: stopped after {seconds:.3f} s: {stopped}; the force sent was zeroed first, "
-              f"what was rendered is written", file=sys.stderr)
+    try:
+        sink = FileSink(audio_path if channels else None, probes_path, patch.rate, channels, args.probe,
+                        subtype=args.subtype)
+    except AudioFileError as exc:
+        raise UsageError(f"--out {out!r}: {exc}") from None
+    except OSError as exc:
+        raise UsageError(f"cannot write beside {out!r}: {exc.strerror or exc}") from None
+
+    stop = StopRequest()
+    caught = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    previous = {s: signal.signal(s, stop.request) for s in caught}
+    try:         # the handlers stay until the files are in place: a second signal loses nothing either
+        outcome = _render_to(sink, patch, args, choices, replayed if args.replay else None, stop)
+        if outcome is None:
+            return 1
+        streamed, problem, failure = outcome
+        written, errors = sink.close()
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    rate = streamed.rate
+    seconds = streamed.samples / rate
+    where = ", ".join(path for path, _ in written) or "-"
+    print(f"{args.patch}: {seconds:g} s at {rate:g} Hz ({args.engine}; compile "
+          f"{streamed.compile_seconds:.2f} s, run {streamed.run_seconds:.2f} s), peak {sink.peak:.4g} -> {where}")
+    held = "; ".join(f"{n} samples written to {path}" for path, n in written) or "nothing written"
+    for error in errors:
+        print(f"hapticgraph: error: {error}", file=sys.stderr)
+    if failure:
+        print(f"hapticgraph: error: {failure}; {held}", file=sys.stderr)
         return 1
-    return 0
+    if streamed.stopped is not None:
+        name = signal.Signals(streamed.stopped).name
+        print(f"hapticgraph: interrupted ({name}) after {seconds:.3f} s; {held}", file=sys.stderr)
+        return 1
+    if problem == "interrupted":
+        print(f"hapticgraph: interrupted after {seconds:.3f} s; {held}", file=sys.stderr)
+        return 1
+    if problem:
+        print(f"hapticgraph: stopped after {seconds:.3f} s: {problem}; the force sent was zeroed first, "
+              f"what was rendered is written ({held})", file=sys.stderr)
+        return 1
+    return 1 if errors else 0
 
 
 def _parse_latency(text):

@@ -85,3 +85,10 @@ def string_session(write_patch):
         patch = load(write_patch(EDITABLE_STRING))
         return Session(patch, drivers=open_drivers(patch), blocksize=blocksize, editable=editable)
     return make
+
+
+@pytest.fixture
+def hg():
+    """`hapticgraph ARGS` in a child process under a memory and time limit (tests/hostile)."""
+    from hostile_env import run_hg
+    return run_hg

@@ -38,12 +38,17 @@ def test_blowup_zeroes_force_and_stops(write_patch):
     with pytest.raises(SafetyStop, match="numerical blow-up|runaway") as info:
         render(patch, 5.0, drivers=drivers, safety=True, chunk=256)
     partial = info.value.result
-    assert 0 < partial.audio.shape[0] < 5 * 8000
-    assert partial.audio.shape[0] % 256 == 0          # stopped at the end of the faulty block
+    kept = partial.audio.shape[0]
+    assert 0 < kept < 5 * 8000
+    # everything up to the sample where it was caught is kept; that sample is the first bad one
+    free = render(load(write_patch(BLOWUP)), 5.0, chunk=256)
+    np.testing.assert_array_equal(partial.audio, free.audio[:kept])
+    assert np.all(np.abs(partial.audio) <= 1e3) and not np.abs(free.audio[kept, 0]) <= 1e3
+    block = kept // 256 * 256                            # the faulty block starts here
     sent = drivers["finger"].force_sent()
-    assert len(sent) == partial.audio.shape[0] + 256      # the faulty block's audio is dropped
+    assert len(sent) == block + 256
     assert np.all(np.isfinite(sent)) and np.all(np.abs(sent) <= 2.0)
-    assert np.all(sent[-256:] == 0.0)                   # the faulty block sent no force at all
+    assert np.all(sent[block:] == 0.0)                   # the faulty block sent no force at all
 
 
 def test_run_keeps_what_was_rendered(write_patch, tmp_path, capsys):
