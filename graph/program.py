@@ -279,7 +279,8 @@ class Program:
                             f"its blocks: {_names(names)}")
         net = self.network_of.get(block)
         comp = net.net.by_name.get(block) if net is not None else None
-        if comp is not None:
+        cell_port = port in ("force", "position", "velocity") or end.index is not None
+        if comp is not None and cell_port:
             cell = block if end.index is None else f"{block}[{', '.join(map(str, end.index))}]"
             if comp.shape and end.index is None:
                 raise PlanError(f"probe {probe!r}: {block!r} is a lattice; address a cell as {block}[i, ...].{port}")

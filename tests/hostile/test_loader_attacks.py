@@ -185,3 +185,11 @@ def test_a_graph_too_large_to_compile_is_refused_with_its_size(tmp_path):
     proc = run_hg("run", path, "--seconds", "0.01", "--out", tmp_path / "o.wav")
     assert_patch_error(proc, f"{path}:2: the patch has 1,001 blocks to compile")
     assert "at most 1,000" in proc.stderr
+
+
+def test_a_lattice_live_parameter_is_probed_without_an_index(tmp_path):
+    path = write(tmp_path, LATTICE.replace("CONNECTION", "s[2].position -> m.in"))
+    proc = run_hg("run", path, "--seconds", "0.01", "--quiet", "--engine", "python", "--out", tmp_path / "o.wav",
+                  "--probe", "s.tension")
+    assert proc.returncode == 0, proc.stderr
+    assert (np.load(tmp_path / "o.npz")["s.tension"] == 100.0).all()
