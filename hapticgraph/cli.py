@@ -331,6 +331,9 @@ def _render_to(sink, patch, args, choices, replayed, stop):
     except (PlanError, DeviceError) as exc:
         sink.discard()
         raise UsageError(str(exc)) from None
+    except PatchError:                     # found while compiling (a plugin numba cannot compile)
+        sink.discard()
+        raise
     except KeyboardInterrupt as exc:
         if not stop.rendering or getattr(exc, "streamed", None) is None:
             sink.discard()
