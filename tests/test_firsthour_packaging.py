@@ -4,7 +4,10 @@ import importlib.metadata
 import pathlib
 import re
 import sys
-import tomllib
+try:
+    import tomllib
+except ImportError:             # Python 3.10
+    import tomli as tomllib
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent    # not `from conftest`: tests/hostile has one too
 
