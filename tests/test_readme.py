@@ -163,7 +163,7 @@ def _schema(proc, work):
     assert json.loads((work / "hapticgraph.schema.json").read_text())["type"] == "object"
 
 
-def _fig8(proc, work):
+def _fig8(proc, work):   # the claim of the first set-up command
     audio, rate = soundfile.read(work / "fig8.wav")
     assert rate == 19000 and len(audio) == 2 * 19000
     plucked = np.abs(audio[int(0.04 * rate):int(0.8 * rate)]).max()
