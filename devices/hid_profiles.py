@@ -48,12 +48,16 @@ import os
 import re
 from dataclasses import dataclass
 
+from ..blocks.device import Haptic
 from ..graph.errors import PatchError
 from ..graph.source import LDict, load_yaml
 
 SUFFIXES = (".yaml", ".yml")
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # used with fullmatch: a name is matched whole
-RESERVED = ("t", "x", "v", "force", "device", "axes", "sensor_x", "sensor_v", "estimate")
+# names no axis or button may take: the haptic block's own ports, settings and sensor columns, the
+# time, and `estimate` (the velocity setting's value)
+RESERVED = ("t", *(d.name for d in Haptic.outputs + Haptic.inputs), *Haptic.params,
+            *(e.attr for e in Haptic.externals), "estimate")
 MAX_REPORT = 4096        # bytes; USB full speed interrupt reports are ≤ 64, high speed ≤ 1024
 MAX_FORCE = 1000.0       # N: no profile may state more (the patch schema's bound on max_force)
 

@@ -116,7 +116,7 @@ class SimulatedKind(DriverKind):
     default = True
     model_columns = ("hand_x", "hand_v")
     # keyframe keys that are not extra axes: the time and the haptic block's own ports and settings
-    RESERVED = ("t", *(p.name for p in Haptic.inputs + Haptic.outputs),
+    RESERVED = ("t", *(p.name for p in Haptic.outputs + Haptic.inputs),
                 *(n for n, p in Haptic.params.items() if not p.internal))
 
     @property
