@@ -11,7 +11,7 @@ import jsonschema
 
 from .errors import Collector, PatchError
 from .network import check_cells, check_springs, check_stability, kernel_items
-from .registry import Registry, RegistryError
+from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
 from .schema import INDEX, patch_schema
 from .source import LDict, LList, line_of, load_yaml, parse_value
@@ -129,9 +129,10 @@ def load(path, overrides=(), registry=None, drivers=None):
                      f"unsupported patch format version {doc['hapticgraph']!r}; this hapticgraph reads version 1")
         problems.raise_if_any()
 
-    registry = registry or Registry(drivers=drivers)
-    if drivers is not None and registry.drivers is not drivers:
-        registry.drivers = {k.name: k for k in (drivers.values() if isinstance(drivers, dict) else drivers)}
+    if registry is None:
+        registry = Registry(drivers=drivers)
+    elif drivers is not None:
+        registry.drivers = driver_table(drivers)
     _load_plugins(doc, registry, os.path.dirname(os.path.abspath(path)), problems)
     _apply_overrides(doc, overrides, registry, problems)
     _stop_if_full(problems)

@@ -46,6 +46,11 @@ def default_drivers():
     return kinds
 
 
+def driver_table(drivers):
+    """Driver kinds (an iterable, or a name -> kind mapping) by name."""
+    return {kind.name: kind for kind in (drivers.values() if isinstance(drivers, dict) else drivers)}
+
+
 def block_types_in(obj):
     """Block types a plugin offers: a Block subclass itself, or every one a module defines."""
     from ..blocks import Block
@@ -64,10 +69,7 @@ class Registry:
 
     def __init__(self, entry_points=True, drivers=None):
         from ..blocks import builtin_types
-        if drivers is None:
-            self.drivers = default_drivers()
-        else:
-            self.drivers = {k.name: k for k in (drivers.values() if isinstance(drivers, dict) else drivers)}
+        self.drivers = default_drivers() if drivers is None else driver_table(drivers)
         self.types = dict(builtin_types())
         self.origin = {name: "built-in" for name in self.types}
         self.plugin_files = {}   # absolute path -> how the patch named it: the code a patch runs
