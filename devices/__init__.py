@@ -1,47 +1,39 @@
-"""Devices: the drivers that bind a patch to the world (simulated haptic device, HID, replay, WAV files)."""
+"""Devices: the drivers that bind a patch to the world (simulated haptic device, HID, replay, WAV
+files). What each driver knows about its device entries is declared in .kinds; this package opens
+them. The drivers' code (numpy, soundfile, threads) is imported when first used (PEP 562), so the
+loader can ask the kinds about a patch without it."""
 import difflib
+import importlib
 import math
 import os
 import sys
 
-from .files import WavInput
-from .hid import HidDriver
-from .simulated import SimulatedDevice, SimulatedHaptic
+from .kinds import driver_kinds, input_kind, kinds_of
+
+# public name -> (module, attribute): imported when first used
+_LAZY = {"HidDriver": (".hid", "HidDriver"), "SimulatedDevice": (".simulated", "SimulatedDevice"),
+         "SimulatedHaptic": (".simulated", "SimulatedHaptic"), "WavInput": (".files", "WavInput")}
+DRIVERS = driver_kinds()     # name -> driver kind (hapticgraph.devices.kinds)
+
+
+def __getattr__(name):
+    try:
+        module, attr = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module, __name__), attr)
+    globals()[name] = value
+    return value
 
 
 class DeviceError(Exception):
     pass
 
 
-def _replay(name, spec, patch):
-    from .record import ReplayDevice
-    return ReplayDevice(name, spec, patch)
-
-
-def _hid(name, spec, patch):
-    # the profile the loader attached (its file relative to the patch) unless a setting names another
-    profile = getattr(spec, "hid_profile", None)
-    return HidDriver(name, spec, profile=profile, base=os.getcwd())
-
-
-DRIVERS = {"simulated": SimulatedDevice, "hid": HidDriver, "replay": _replay}
-def _simulated(name, spec, patch):
-    from ..graph.patch import device_axes
-    return SimulatedDevice(name, spec, axes=device_axes(patch.devices, name))
-
-
-_OPEN = {"simulated": _simulated, "hid": _hid, "replay": _replay}
-
-
 # -- device settings (`--device NAME=DRIVER,KEY=VALUE,...`) ---------------------------------------------
-def driver_settings():
-    """Each driver's settings, name -> JSON Schema, from the patch schema's device entry."""
-    from ..graph.schema import device_schema
-    out = {}
-    for clause in device_schema()["allOf"]:
-        kind = clause["if"]["properties"]["driver"]["const"]
-        out[kind] = {k: v for k, v in clause["then"]["properties"].items() if k != "driver"}
-    return out
+def driver_settings(kinds=None):
+    """Each driver's settings, name -> {key: JSON Schema}, as its kind declares them."""
+    return {name: kind.settings() for name, kind in (kinds or DRIVERS).items()}
 
 
 def _scalar(schema):
@@ -109,75 +101,66 @@ def _did_you_mean(word, options):
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-def _entry(name, spec, choice, accepted, notes):
+def _entry(name, spec, choice, kinds, notes):
     """The device entry a driver opens: the file's, with the command line's choice applied; keys
     only another driver reads are left out, with a note."""
-    file_driver = spec.get("driver", "simulated")
+    file_kind = _driver_of(spec, kinds)
     if choice is None:
-        return file_driver, spec
-    kind, settings = (choice, {}) if isinstance(choice, str) else (choice.driver, choice.settings)
-    if kind not in accepted:
-        raise DeviceError(f"device {name!r}: unknown driver {kind!r}; the drivers are: {', '.join(sorted(accepted))}")
-    if kind == file_driver and not settings:
+        return file_kind, spec
+    kind_name, settings = (choice, {}) if isinstance(choice, str) else (choice.driver, choice.settings)
+    kind = kinds.get(kind_name)
+    if kind is None:
+        raise DeviceError(f"device {name!r}: unknown driver {kind_name!r}; the drivers are: {', '.join(sorted(kinds))}")
+    if kind is file_kind and not settings:
         return kind, spec
-    keep = accepted[kind]
+    keep = kind.settings()
     ignored = [k for k in spec if k != "driver" and k not in keep]
-    entry = type(spec)({k: v for k, v in spec.items() if k not in ignored})
-    for attr in ("line", "lines"):
-        if hasattr(spec, attr):
-            setattr(entry, attr, getattr(spec, attr))
-    if "profile" not in settings and hasattr(spec, "hid_profile"):
-        entry.hid_profile = spec.hid_profile
-    entry.update(settings)
-    entry["driver"] = kind
+    entry = kind.override(spec, settings, drop=ignored)
     if ignored and isinstance(choice, Choice):
-        notes.append(f"device {name!r} ({kind}): ignoring {', '.join(ignored)} of the patch's "
-                     f"{file_driver} entry (the {kind} driver does not read them)")
+        file_name = file_kind.name if file_kind is not None else spec.get("driver")
+        notes.append(f"device {name!r} ({kind.name}): ignoring {', '.join(ignored)} of the patch's "
+                     f"{file_name} entry (the {kind.name} driver does not read them)")
     return kind, entry
+
+
+def _driver_of(spec, kinds):
+    from ..graph.patch import driver_of
+    return driver_of(spec, kinds)
 
 
 def open_drivers(patch, choices=None, live_input=None, notes=None):
     """A Driver for each device entry of a patch (`choices`, name → a driver name or a Choice
-    with settings, overrides the file), and one for each block fed from a file (audio_in) — or,
-    with `live_input` (play gives it), a live input driver `live_input(block)` for an audio_in
-    block with no file. A device entry's `file` (a replay take) is relative to the patch.
-    Notes (settings ignored for another driver) are appended to `notes`, or printed on stderr."""
+    with settings, overrides the file), and one for each block fed from outside (audio_in: its
+    file or — with `live_input` (play gives it) — a live input driver `live_input(block)`). A
+    device entry's `file` (a replay take) is relative to the patch. Notes (settings ignored for
+    another driver) are appended to `notes`, or printed on stderr."""
     choices = dict(choices or {})
     unknown = set(choices) - set(patch.devices)
     if unknown:
         raise DeviceError(f"--device: the patch declares no device named {', '.join(sorted(unknown))} "
                           f"(its devices: {', '.join(patch.devices) or 'none'})")
-    accepted = driver_settings()
+    kinds = kinds_of(patch)
     said = [] if notes is None else notes
     drivers = {}
     base = os.path.dirname(os.path.abspath(patch.file))
     for name, spec in patch.devices.items():
-        kind, spec = _entry(name, spec, choices.get(name), accepted, said)
+        kind, spec = _entry(name, spec, choices.get(name), kinds, said)
         if notes is None:            # said before the device opens (which may fail)
             for line in said:
                 print(f"hapticgraph: note: {line}", file=sys.stderr)
             said.clear()
-        factory = _OPEN.get(kind)
-        if factory is None:
-            raise DeviceError(f"device {name!r}: driver {kind!r} is not available in this build "
-                              f"(available: {', '.join(sorted(_OPEN))})")
+        if kind is None:
+            raise DeviceError(f"device {name!r}: driver {spec.get('driver')!r} is not available in this build "
+                              f"(available: {', '.join(sorted(kinds))})")
         choice = choices.get(name)
         from_cli = isinstance(choice, Choice) and "file" in choice.settings
         if isinstance(spec.get("file"), str) and not from_cli:
             spec = {**spec, "file": os.path.join(base, spec["file"])}
-        drivers[name] = factory(name, spec, patch)
+        drivers[name] = kind.open(name, spec, patch)
     for inst in patch.blocks.values():
-        if inst.cls.type_name == "audio_in":
-            if not inst.values["file"] and live_input is not None:
-                drivers[inst.name] = live_input(inst)
-                continue
-            if not inst.values["file"]:
-                raise DeviceError(f"block {inst.name!r} (audio_in): no file given, and live input needs `play`")
-            path = os.path.join(base, inst.values["file"])
-            try:
-                drivers[inst.name] = WavInput(path, inst.values["channel"], inst.values["loop"])
-            except (OSError, ValueError) as exc:
-                raise DeviceError(f"block {inst.name!r} (audio_in): cannot read {inst.values['file']!r}: {exc}") from None
+        feeder = input_kind(inst.cls)
+        if feeder is not None:
+            drivers[inst.name] = feeder.open(inst, base, live_input)
     return drivers
 
 

@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 from ..graph.engine import Driver, SafetyStop, Session
+from .kinds import same as _same
 
 PLAY, FADE_RUN, FADE_HOLD, DONE = 0, 1, 2, 3
 FLAGS = ("output_underflow", "output_overflow", "input_underflow", "input_overflow", "priming_output")
@@ -416,23 +417,6 @@ def _incoming(patch):
     return {k: sorted(v) for k, v in into.items()}
 
 
-def _same(a, b):
-    """Deep equality of parameter values (dicts, lists, numpy arrays, numbers, strings)."""
-    seq = (list, tuple, np.ndarray)
-    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.dtype != object and b.dtype != object:
-        return a.shape == b.shape and bool(np.array_equal(a, b))
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, seq) and isinstance(b, seq):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    if isinstance(a, (dict,) + seq) or isinstance(b, (dict,) + seq):
-        return False
-    try:
-        return bool(a == b)
-    except Exception:  # noqa: BLE001 - not comparable: treat as changed
-        return False
-
-
 def carry_state(old, new):
     """(dst, src) array pairs that give `new` (a Program) the current state of every block of
     `old` whose type, parameters and incoming connections did not change: its State slots, its
@@ -476,20 +460,28 @@ def carry_state(old, new):
 
 
 def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=None):
-    """Drivers for `new_patch`: those of devices (and audio inputs) whose entry did not change
-    are the running ones; the others are opened. Returns (drivers, opened, unused old ones)."""
+    """Drivers for `new_patch`: the running ones of devices (and audio inputs) whose driver kind
+    keeps them (by default: the entry did not change); the others are opened. Returns (drivers,
+    opened, unused old ones)."""
+    from ..graph.patch import driver_of
     from . import open_drivers
+    from .kinds import input_kind, kinds_of
+    kinds, old_kinds = kinds_of(new_patch), kinds_of(old_patch)
     keep, changed_devices, changed_inputs = {}, {}, {}
     for name, spec in new_patch.devices.items():
-        if name in old_patch.devices and _same(dict(old_patch.devices[name]), dict(spec)) and name in old_drivers:
+        old = old_patch.devices.get(name)
+        kind = driver_of(spec, kinds)
+        if (old is not None and name in old_drivers and kind is not None
+                and driver_of(old, old_kinds) is kind and kind.kept(old, spec)):
             keep[name] = old_drivers[name]
         else:
             changed_devices[name] = spec
     for inst in new_patch.blocks.values():
-        if inst.cls.type_name != "audio_in":
+        feeder = input_kind(inst.cls)
+        if feeder is None:
             continue
         old = old_patch.blocks.get(inst.name)
-        if old is not None and old.cls is inst.cls and _same(old.values, inst.values) and inst.name in old_drivers:
+        if old is not None and inst.name in old_drivers and feeder.kept(old, inst):
             keep[inst.name] = old_drivers[inst.name]
         else:
             changed_inputs[inst.name] = inst

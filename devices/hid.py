@@ -1,5 +1,5 @@
 """HID devices (`driver: hid`): gesture devices (gamepads, mice) and force-feedback devices
-read and driven through hidapi, described by a profile (hapticgraph.graph.profiles).
+read and driven through hidapi, described by a profile (hapticgraph.devices.hid_profiles).
 
     devices:
       paddle: {driver: hid, profile: haptic_1dof, max_force: 2.0}
@@ -50,7 +50,8 @@ import numpy as np
 
 from ..graph.engine import Driver
 from ..graph.errors import PatchError
-from ..graph.profiles import MAX_FORCE, find_profile, load_profile, shipped_profiles
+from .hid_profiles import MAX_FORCE, find_profile, load_profile, shipped_profiles
+from .kinds import HidKind
 from .simulated import force_limit
 
 RING = 512                  # reports held between the reader thread and the kernel
@@ -389,7 +390,7 @@ class HidDriver(Driver):
         self.max_force = float(profile.max_force)
         if spec.get("max_force") is not None:
             bound = self.max_force if profile.output else MAX_FORCE
-            self.max_force = force_limit(name, "hid", spec["max_force"], bound,
+            self.max_force = force_limit(name, HidKind.name, spec["max_force"], bound,
                                          f"the bound of its profile {profile.name!r}" if profile.output
                                          else "the bound of any device")
         vid = spec.get("vendor_id", profile.vendor_id)

@@ -26,7 +26,8 @@ names with their axes, and the audio_in blocks. A take from another patch is ref
 anything starts (exit status 2); a take from the same patch with changed parameters re-renders
 the same gestures through the changed instrument. Each driver's entry keeps what makes the kernel
 identical on replay: its columns, the device model it substitutes for the patch's block, named
-as data (`"model": "simulated"` or null, looked up in the fixed table MODELS — a take never
+as data (`"model"`: the name of the driver kind that simulates the device, or null; looked up in
+the fixed table MODELS — a take never
 names a module, and reading one imports nothing) and that model's internal values (mass, grip,
 max_force), each checked against the model's declared range.
 
@@ -57,7 +58,7 @@ import numpy as np
 from ..graph.engine import Driver
 from ..graph.patch import device_axes
 from . import DeviceError
-from .simulated import SimulatedHaptic
+from .kinds import KINDS, SimulatedKind, input_kind, kinds_of
 
 MAGIC = b"HGREC\x00"
 VERSION = 1
@@ -66,12 +67,14 @@ PREAMBLE = len(MAGIC) + 2 + 8     # magic, version (uint16), header length (uint
 MAX_HEADER = 1 << 20              # bytes of JSON header a take may have
 MAX_COLUMNS = 4096
 
-# The device models a take may name, as data: "model" in a driver's entry -> the block type.
-MODELS = {"simulated": SimulatedHaptic}
-MODEL_COLUMNS = {"simulated": ("hand_x", "hand_v")}     # the columns each model reads first
+# The device models a take may name, as data: "model" in a driver's entry -> the block type, as
+# the driver kinds that simulate their device declare it, with the columns each model reads first.
+MODELS = {kind.name: kind.model for kind in KINDS if kind.model is not None}
+MODEL_COLUMNS = {kind.name: tuple(kind.model_columns) for kind in KINDS if kind.model is not None}
 # Takes written before the model was named as data held a `module:qualname`; only these known
 # strings are understood (looked up, never imported).
-LEGACY_TYPES = {"hapticgraph.devices.simulated:SimulatedHaptic": "simulated"}
+LEGACY_TYPES = {"hapticgraph.devices.simulated:SimulatedHaptic": SimulatedKind.name}
+FORCE_COLUMN = "force"     # a take's label of the force column of each device (format version 1)
 
 _NAMES = {"type": "array", "maxItems": MAX_COLUMNS, "items": {"type": "string", "maxLength": 256}}
 HEADER_SCHEMA = {
@@ -116,11 +119,13 @@ class TakeError(DeviceError):
 
 # -- the patch a take belongs to ------------------------------------------------------------------
 def patch_signature(patch):
-    """What a take must match: the rate, each device's name and axes, the audio_in blocks."""
+    """What a take must match: the rate, each device's name and axes, the blocks fed from
+    outside (audio_in)."""
+    kinds = kinds_of(patch)
     return {
         "rate": float(patch.rate),
-        "devices": {name: list(device_axes(patch.devices, name)) for name in sorted(patch.devices)},
-        "inputs": sorted(inst.name for inst in patch.blocks.values() if inst.cls.type_name == "audio_in"),
+        "devices": {name: list(device_axes(patch.devices, name, kinds)) for name in sorted(patch.devices)},
+        "inputs": sorted(inst.name for inst in patch.blocks.values() if input_kind(inst.cls) is not None),
     }
 
 
@@ -182,7 +187,7 @@ def take_header(session, channels, blocksize, kinds=None):
                            "input": device in sig["inputs"]}
         offset += len(cols)
     columns = [[dev, c] for dev, c in prog.ext_columns]
-    columns += [[dev, "force"] for dev, _ in prog.device_records]
+    columns += [[dev, FORCE_COLUMN] for dev, _ in prog.device_records]
     return {
         "format": "hapticgraph take", "version": VERSION,
         "patch": {"name": patch.name, "file": os.path.basename(patch.file), "fingerprint": fingerprint(sig),
@@ -513,7 +518,7 @@ class Take:
         cols, nin, forces = h["columns"], h["inputs"], h["forces"]
         if len(cols) != nin + len(forces):
             raise self._bad(f"{len(cols)} columns, but {nin} inputs and {len(forces)} forces")
-        if cols[nin:] != [[d, "force"] for d in forces]:
+        if cols[nin:] != [[d, FORCE_COLUMN] for d in forces]:
             raise self._bad("the force columns do not match `forces`")
         for name, info in h["drivers"].items():
             off, dcols = info["offset"], info["columns"]

@@ -20,7 +20,7 @@ import numpy as np
 from ..blocks import External, Param, State
 from ..blocks.device import Haptic, clamp_force
 from ..graph.engine import Driver
-from ..graph.profiles import SIMULATED_MAX_FORCE
+from .kinds import SIMULATED_MAX_FORCE, SimulatedKind
 
 
 MAX_FORCE = SIMULATED_MAX_FORCE     # 50 N: the simulated device's bound on max_force (see the module's doc)
@@ -73,17 +73,16 @@ class SimulatedDevice(Driver):
     def __init__(self, name, spec, axes=None):
         """`axes`: the device's axes as the patch sees them (default: from `spec`), when the
         entry was written for another driver (a HID profile's axes then come in as zeros)."""
-        from ..graph.patch import device_axes
         self.name = name
         script = spec.get("script") or [{"t": 0.0, "x": 0.0}]
         self.times = np.array([float(k["t"]) for k in script])
         self.xs = self._track(script, "x")
         # other axes and buttons: keyframes that carry the key are interpolated, others skipped
-        self.axes = list(axes) if axes is not None else device_axes({name: spec}, name)
+        self.axes = list(axes) if axes is not None else SimulatedKind().axes(spec)
         self.axis_tracks = [self._track(script, a) for a in self.axes]
         self.columns = ("hand_x", "hand_v") + tuple(self.axes)
         self.hold = bool(spec.get("hold", True))
-        self.max_force = force_limit(name, "simulated", spec.get("max_force", 4.0), MAX_FORCE,
+        self.max_force = force_limit(name, SimulatedKind.name, spec.get("max_force", 4.0), MAX_FORCE,
                                      "the simulated device's bound")
         self.values = {"mass": float(spec.get("mass", 0.05)),
                        "hand_stiffness": float(spec.get("hand_stiffness", 400.0)),

@@ -16,6 +16,10 @@ ENGINES = ("compiled", "python")
 class Driver:
     """What the engine asks of a device; hapticgraph.devices implements it (simulated, HID, replay).
 
+    What a driver knows before it runs (its device entry's settings and checks, the axes it
+    offers) is its driver kind's, which the caller hands the loader (hapticgraph.graph.registry);
+    graph/ names no driver.
+
     `columns` names the per-sample inputs it supplies (the External attributes of its block type);
     `block_type`, if set, replaces the patch's block bound to the device (a device model);
     `block_values()` gives that block's internal parameters (e.g. max_force).

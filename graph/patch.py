@@ -11,8 +11,7 @@ import jsonschema
 
 from .errors import Collector, PatchError
 from .network import check_cells, check_springs, check_stability, kernel_items
-from .profiles import attach_profiles, profile_of
-from .registry import Registry, RegistryError
+from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
 from .schema import INDEX, patch_schema
 from .source import LDict, LList, line_of, load_yaml, parse_value
@@ -111,8 +110,11 @@ class Patch:
         return f"<Patch {self.name!r} from {self.file}: {len(self.blocks)} blocks at {self.rate:g} Hz>"
 
 
-def load(path, overrides=(), registry=None):
-    """Load and check a patch file; raise PatchError listing every problem found."""
+def load(path, overrides=(), registry=None, drivers=None):
+    """Load and check a patch file; raise PatchError listing every problem found.
+
+    `drivers` (driver kinds, see hapticgraph.graph.registry) replaces the registry's: the device
+    drivers the patch's `devices:` entries may name."""
     path = os.fspath(path)
     doc, problems = load_yaml(path)
     if doc is None:
@@ -127,13 +129,16 @@ def load(path, overrides=(), registry=None):
                      f"unsupported patch format version {doc['hapticgraph']!r}; this hapticgraph reads version 1")
         problems.raise_if_any()
 
-    registry = registry or Registry()
+    if registry is None:
+        registry = Registry(drivers=drivers)
+    elif drivers is not None:
+        registry.drivers = driver_table(drivers)
     _load_plugins(doc, registry, os.path.dirname(os.path.abspath(path)), problems)
     _apply_overrides(doc, overrides, registry, problems)
     _stop_if_full(problems)
     _check_schema(doc, registry, problems)
     _stop_if_full(problems)
-    attach_profiles(doc.get("devices"), os.path.dirname(os.path.abspath(path)), problems)
+    _check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema
@@ -276,6 +281,8 @@ def _check_schema(doc, registry, problems):
             continue  # unknown parameters, reported above with a suggestion
         if err.validator in ("if", "allOf"):
             continue
+        if len(path) == 3 and path[0] == "devices" and path[2] == "driver":
+            continue  # an unknown driver, reported by _check_drivers with a suggestion
         problems.add(line_of(doc, path), _describe(err, path, doc, registry))
 
 
@@ -355,7 +362,7 @@ def _instances(doc, registry, rate, problems):
             continue
         for pname, param in cls.params.items():
             if param.refers == "devices" and "axes" in cls.params:
-                values["axes"] = device_axes(doc.get("devices"), values[pname])
+                values["axes"] = device_axes(doc.get("devices"), values[pname], registry.drivers)
         inst = Instance(name, cls, values, blocks.lines[name], spec.lines, index)
         for pname, param in cls.params.items():
             if param.refers == "file" and values[pname]:
@@ -376,40 +383,41 @@ def _instances(doc, registry, rate, problems):
     return out
 
 
-RESERVED_AXES = ("t", "x", "v", "force", "device")
+def driver_of(spec, drivers):
+    """The driver kind of a device entry: its `driver:`, else the default kind; None if unknown."""
+    name = spec.get("driver") if isinstance(spec, dict) else None
+    if name is None:
+        return next((k for k in drivers.values() if k.default), None)
+    return drivers.get(name) if isinstance(name, str) else None
 
 
-def device_axes(devices, name):
-    """A device's extra axes and buttons: for a simulated device, the keys its script keyframes
-    carry besides t and x (in order of appearance); for `driver: hid`, its profile's axes and
-    buttons; otherwise its `axes` list."""
+def device_axes(devices, name, drivers):
+    """A device's extra axes and buttons, as its driver kind reads them from its entry."""
     spec = devices.get(name) if isinstance(devices, dict) else None
-    if not isinstance(spec, dict):
-        return []
-    if spec.get("driver") == "hid":
-        profile = profile_of(spec)
-        return list(profile.ports) if profile is not None else []
-    axes = [a for a in spec.get("axes", []) if isinstance(a, str)] if isinstance(spec.get("axes"), list) else []
-    script = spec.get("script")
-    for key in script if isinstance(script, list) else []:
-        if isinstance(key, dict):
-            axes += [k for k in key if k not in RESERVED_AXES and k not in axes]
-    return axes
+    kind = driver_of(spec, drivers) if isinstance(spec, dict) else None
+    return list(kind.axes(spec)) if kind is not None else []
+
+
+def _check_drivers(devices, drivers, base, problems):
+    """Each device entry names a known driver (or there is a default one), which checks the rest."""
+    if not isinstance(devices, LDict):
+        return
+    for name, spec in devices.items():
+        if not isinstance(spec, LDict):
+            continue
+        kind = driver_of(spec, drivers)
+        if kind is None:
+            given = spec.get("driver")
+            known = ", ".join(sorted(drivers)) or "none (the loader was given no driver table)"
+            what = (f"unknown driver {given!r}{_suggest(str(given), drivers)}" if given is not None
+                    else "no driver given, and there is no default one")
+            problems.add(spec.lines.get("driver", spec.line), f"device {name!r}: {what}; the drivers are: {known}")
+            continue
+        kind.check(name, spec, base, problems)
 
 
 def _check_devices(devices, blocks, problems):
-    """Keyframes in time order; every device reference names a declared device, once."""
-    for name, spec in devices.items():
-        script = spec.get("script") if isinstance(spec, LDict) else None
-        if isinstance(script, LList):
-            last = None
-            for key, line in zip(script, script.lines):
-                t = key.get("t") if isinstance(key, dict) else None
-                if isinstance(t, (int, float)) and not isinstance(t, bool):
-                    if last is not None and t < last:
-                        problems.add(line, f"device {name!r}: script keyframe at t = {t} s goes back in time "
-                                           f"(the previous one is at t = {last} s)")
-                    last = t
+    """Every device reference names a declared device, once."""
     users = {}
     for inst in blocks.values():
         for pname, param in inst.cls.params.items():

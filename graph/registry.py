@@ -1,28 +1,62 @@
 """Where block types come from: the built-ins, installed plugin packages (entry-point group
-`hapticgraph.blocks`) and a patch's own `plugins:` (a module name or a `.py` file beside it)."""
+`hapticgraph.blocks`) and a patch's own `plugins:` (a module name or a `.py` file beside it);
+and the device driver kinds a patch's `devices:` entries may name, which graph/ never names
+itself: the caller passes them (`Registry(drivers=...)`), or the top floor installs the default
+table once with `provide_drivers` (hapticgraph/__init__.py hands over hapticgraph.devices').
+
+A driver kind is an object with
+    name        the value of `driver:` that selects it
+    default     true for the one kind used by an entry with no `driver:` key
+    settings()  the keys of its entry besides `driver`, key -> JSON Schema
+    required    keys its entry must have; closed: true if other keys are refused
+    check(name, spec, base, problems)   what the schema cannot check (`base`: the patch's folder;
+                problems: a Collector); it may attach what it parsed to `spec`
+    axes(spec)  the device's extra columns (axes, buttons): output ports of the block bound to it
+Everything else about a driver (opening it, simulating, replaying) is devices/' business.
+
+Importing this module is light (no block library): the top floor imports it at start-up."""
 import hashlib
 import importlib
-import importlib.metadata
 import importlib.util
-import inspect
 import os
 import sys
 import traceback
-
-from ..blocks import Block, builtin_types
+from types import ModuleType
 
 ENTRY_POINT_GROUP = "hapticgraph.blocks"
+_DRIVER_PROVIDERS = []   # callables returning {name: driver kind}; see provide_drivers
 
 
 class RegistryError(Exception):
     pass
 
 
+def provide_drivers(provider):
+    """Install `provider()` -> {name: driver kind}: the kinds a Registry made without `drivers`
+    knows. Called once by the top floor; the provider is called when a Registry is made."""
+    if provider not in _DRIVER_PROVIDERS:
+        _DRIVER_PROVIDERS.append(provider)
+
+
+def default_drivers():
+    """The driver kinds every provider offers, by name (empty if none was installed)."""
+    kinds = {}
+    for provider in _DRIVER_PROVIDERS:
+        kinds.update(provider())
+    return kinds
+
+
+def driver_table(drivers):
+    """Driver kinds (an iterable, or a name -> kind mapping) by name."""
+    return {kind.name: kind for kind in (drivers.values() if isinstance(drivers, dict) else drivers)}
+
+
 def block_types_in(obj):
     """Block types a plugin offers: a Block subclass itself, or every one a module defines."""
+    from ..blocks import Block
     if isinstance(obj, type) and issubclass(obj, Block):
         return [obj]
-    if inspect.ismodule(obj):
+    if isinstance(obj, ModuleType):
         return [v for v in vars(obj).values()
                 if isinstance(v, type) and issubclass(v, Block) and v.__module__ == obj.__name__
                 and v.type_name]
@@ -30,13 +64,17 @@ def block_types_in(obj):
 
 
 class Registry:
-    """Block types by name; `origin[name]` says where each came from."""
+    """Block types by name; `origin[name]` says where each came from; `drivers`: the device
+    driver kinds by name (the given ones, else those installed with provide_drivers)."""
 
-    def __init__(self, entry_points=True):
+    def __init__(self, entry_points=True, drivers=None):
+        from ..blocks import builtin_types
+        self.drivers = default_drivers() if drivers is None else driver_table(drivers)
         self.types = dict(builtin_types())
         self.origin = {name: "built-in" for name in self.types}
         self.plugin_files = {}   # absolute path -> how the patch named it: the code a patch runs
         if entry_points:
+            import importlib.metadata     # here, not at import: the top floor imports this module at start-up
             for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
                 try:
                     module = ep.load()

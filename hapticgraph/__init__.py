@@ -12,7 +12,19 @@ The names are imported when first used (PEP 562), so `import hapticgraph` and th
 import importlib
 import os
 
+from .graph.registry import provide_drivers as _provide_drivers
+
 __version__ = "0.1.0"
+
+
+def _device_drivers():
+    """The driver kinds of hapticgraph.devices: what a patch's `devices:` entries may name. The
+    loader (graph/) imports nothing from devices/; this top floor hands them over."""
+    from .devices.kinds import driver_kinds
+    return driver_kinds()
+
+
+_provide_drivers(_device_drivers)
 
 # public name -> (module relative to this package, attribute)
 _LAZY = {
@@ -49,13 +61,14 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY))
 
 
-def load(path, overrides=(), registry=None):
+def load(path, overrides=(), registry=None, drivers=None):
     """Load and check a patch file: a Patch, or PatchError listing every problem (`.problems`).
 
-    `overrides` are "BLOCK.PARAM=VALUE" strings, as `--set` takes them.
+    `overrides` are "BLOCK.PARAM=VALUE" strings, as `--set` takes them; `drivers` (driver kinds,
+    default: hapticgraph.devices') the drivers its `devices:` entries may name.
     """
     from .graph.patch import load as _load
-    return _load(path, overrides=overrides, registry=registry)
+    return _load(path, overrides=overrides, registry=registry, drivers=drivers)
 
 
 def check(path, overrides=()):

@@ -5,7 +5,7 @@ import pytest
 
 from hapticgraph import load
 from hapticgraph.devices import Choice, DeviceError, open_drivers, parse_choice
-from hapticgraph.graph.profiles import find_profile
+from hapticgraph.devices.hid_profiles import find_profile
 
 
 def test_values_are_yaml_scalars_checked_by_the_schema():

@@ -111,3 +111,65 @@ def test_set_values_are_read_like_the_file(tmp_path, capsys):
     assert main(["check", str(path), "--set", "f.coeffs=[0.5, 0.5]", "--set", "f.gain=0.5"]) == 0
     assert main(["check", str(path), "--set", "f.gain=.inf"]) == 2
     assert f"{path}:4: --set 'f.gain=.inf': '.inf': numbers must be finite" in capsys.readouterr().err
+
+
+# -- devices: graph/ knows no driver; the caller hands the loader the driver kinds -------------------
+
+DEVICE_PATCH = OK_HEAD + ("devices:\n  finger: {driver: simulated, script: [{t: 0.0, x: 0.0, button: 1}]}\n"
+                          "  thumb: {max_force: 1.0}\nblocks:\n  h: {type: haptic, device: finger}\n"
+                          "  k: {type: haptic, device: thumb}\n")
+
+
+def _problems(path, **kw):
+    from hapticgraph.graph.errors import PatchError
+    from hapticgraph.graph.patch import load
+    try:
+        load(path, **kw)
+    except PatchError as exc:
+        return [(p.line, p.message) for p in exc.problems]
+    return []
+
+
+def test_a_patch_loaded_without_drivers_names_its_devices_drivers_unknown(tmp_path):
+    path = tmp_path / "p.yaml"
+    path.write_text(DEVICE_PATCH)
+    problems = _problems(path, drivers=())
+    assert (4, "device 'finger': unknown driver 'simulated'; the drivers are: none (the loader was "
+               "given no driver table)") in problems
+    assert (5, "device 'thumb': no driver given, and there is no default one; the drivers are: none "
+               "(the loader was given no driver table)") in problems
+
+
+def test_the_default_drivers_are_the_devices_packages(tmp_path):
+    from hapticgraph.devices.kinds import driver_kinds
+    from hapticgraph.graph.patch import load
+    path = tmp_path / "p.yaml"
+    path.write_text(DEVICE_PATCH)
+    patch = load(path)
+    assert set(patch.registry.drivers) == set(driver_kinds())
+    assert [p.name for p in patch.blocks["h"].outputs] == ["x", "v", "button"]   # the simulated kind's axes
+    assert load(path, drivers=driver_kinds()).blocks["h"].values["axes"] == ["button"]
+
+
+def test_an_unknown_driver_is_reported_once_with_a_suggestion(tmp_path, capsys):
+    path = tmp_path / "p.yaml"
+    path.write_text(OK_HEAD + "devices:\n  finger: {driver: simulatd}\nblocks:\n  h: {type: haptic, device: finger}\n")
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"{path}:4: device 'finger': unknown driver 'simulatd' (did you mean 'simulated'?); "
+                   "the drivers are: hid, replay, simulated"]
+
+
+def test_graph_imports_nothing_from_devices():
+    import ast
+    import pathlib
+    graph = pathlib.Path(__file__).resolve().parents[2] / "graph"
+    for path in sorted(graph.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or ""] + [a.name for a in node.names]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            assert not any("devices" in n for n in names), f"{path.name}:{node.lineno} imports devices/"

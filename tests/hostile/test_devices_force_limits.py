@@ -59,7 +59,7 @@ def test_max_force_must_be_finite_and_positive(tmp_path, value):
     (".nan", "mine.yaml:19: '.nan': numbers must be finite"),
 ])
 def test_a_profile_states_a_finite_bound(tmp_path, value, message):
-    from hapticgraph.graph.profiles import find_profile
+    from hapticgraph.devices.hid_profiles import find_profile
     text = open(find_profile("haptic_1dof"), encoding="utf-8").read()
     (tmp_path / "mine.yaml").write_text(text.replace("max_force: 4.0 ", f"max_force: {value} "))
     p = tmp_path / "p.yaml"

@@ -3,8 +3,8 @@
 A profile is read into frozen dataclasses and checked as a whole; every problem is reported as
 `FILE:LINE: message` (a PatchError), so a patch that names a bad profile never starts. The
 transport, the reader thread and the velocity estimator live in hapticgraph.devices.hid; this
-module only parses, validates, decodes one field and encodes the force report, so the patch
-loader (graph/) can learn a device's ports without importing devices/.
+module only parses, validates, decodes one field and encodes the force report; the hid driver
+kind (hapticgraph.devices.kinds) hands the loader a device's ports from it.
 
 Profile format (version 1)::
 
@@ -47,17 +47,19 @@ import math
 import os
 import re
 from dataclasses import dataclass
-from importlib.util import find_spec
 
-from .errors import PatchError
-from .source import LDict, load_yaml
+from ..blocks.device import Haptic
+from ..graph.errors import PatchError
+from ..graph.source import LDict, load_yaml
 
 SUFFIXES = (".yaml", ".yml")
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # used with fullmatch: a name is matched whole
-RESERVED = ("t", "x", "v", "force", "device", "axes", "sensor_x", "sensor_v", "estimate")
+# names no axis or button may take: the haptic block's own ports, settings and sensor columns, the
+# time, and `estimate` (the velocity setting's value)
+RESERVED = ("t", *(d.name for d in Haptic.outputs + Haptic.inputs), *Haptic.params,
+            *(e.attr for e in Haptic.externals), "estimate")
 MAX_REPORT = 4096        # bytes; USB full speed interrupt reports are ≤ 64, high speed ≤ 1024
 MAX_FORCE = 1000.0       # N: no profile may state more (the patch schema's bound on max_force)
-SIMULATED_MAX_FORCE = 50.0   # N: the simulated device's bound (hapticgraph.devices.simulated)
 
 TOP_KEYS = ("hid_profile", "name", "description", "vendor_id", "product_id", "max_force", "input", "output")
 INPUT_KEYS = ("report_id", "length", "interval", "timeout", "position", "velocity", "velocity_cutoff",
@@ -211,15 +213,8 @@ class Profile:
 # -- where profiles are -------------------------------------------------------------------------
 
 def shipped_dir():
-    """The folder of the profiles shipped with the package (package data of hapticgraph.devices,
-    located as data: the devices package's code is not imported from here)."""
-    try:
-        spec = find_spec("hapticgraph.devices")
-    except (ImportError, ValueError):
-        spec = None
-    if spec is not None and spec.submodule_search_locations:
-        return os.path.join(list(spec.submodule_search_locations)[0], "profiles")
-    return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "devices", "profiles")
+    """The folder of the profiles shipped with the package (package data beside this module)."""
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "profiles")
 
 
 def shipped_profiles():
@@ -267,48 +262,6 @@ def profile_of(spec, base=None):
         return load_profile(path)
     except PatchError:
         return None
-
-
-def attach_profiles(devices, base, problems):
-    """For each `driver: hid` entry of a patch: load its profile, report problems (an unknown
-    profile at the patch's line, a bad one at the profile's FILE:LINE) and attach it to the entry
-    (as the attribute `hid_profile`, read by device_axes and the HID driver)."""
-    if not isinstance(devices, LDict):
-        return
-    for name, spec in devices.items():
-        if not isinstance(spec, LDict):
-            continue
-        if spec.get("driver", "simulated") == "simulated":
-            _check_limit(spec, name, SIMULATED_MAX_FORCE, "the simulated device's bound", problems)
-        if spec.get("driver") != "hid" or not isinstance(spec.get("profile"), str):
-            continue
-        ref = spec["profile"]
-        line = spec.lines.get("profile", spec.line)
-        path = find_profile(ref, base)
-        if path is None:
-            known = ", ".join(shipped_profiles()) or "none"
-            problems.add(line, f"device {name!r}: no HID profile {ref!r} (shipped: {known}; "
-                               f"or a .yaml file beside the patch)")
-            continue
-        try:
-            spec.hid_profile = load_profile(path)
-        except PatchError as exc:
-            problems.add(line, f"device {name!r}: HID profile {ref!r} has {len(exc.problems)} problem(s), "
-                               f"listed at its own file and lines")
-            problems.problems.extend(exc.problems)
-            continue
-        profile = spec.hid_profile
-        if profile.output is not None:
-            _check_limit(spec, name, profile.max_force, f"the bound its profile {profile.name!r} states", problems)
-
-
-def _check_limit(spec, name, bound, what, problems):
-    """A device entry's max_force may not exceed its device's bound (a finite number > 0 is the
-    schema's to check)."""
-    value = spec.get("max_force")
-    if _is_num(value) and 0 < value <= MAX_FORCE and value > bound:
-        problems.add(spec.lines.get("max_force", spec.line),
-                     f"device {name!r}: max_force {value:g} N is above {what}, {bound:g} N")
 
 
 # -- parsing and checking ------------------------------------------------------------------------
@@ -573,5 +526,5 @@ def _parse(doc, path, problems):
     return Profile(name, path, vid, pid, report, out, max_force or 0.0, description)
 
 
-__all__ = ["MAX_FORCE", "SIMULATED_MAX_FORCE", "Field", "InputReport", "OutputReport", "Profile", "attach_profiles", "find_profile",
-           "load_profile", "profile_of", "shipped_dir", "shipped_profiles"]
+__all__ = ["MAX_FORCE", "Field", "InputReport", "OutputReport", "Profile", "find_profile", "load_profile",
+           "profile_of", "shipped_dir", "shipped_profiles"]
