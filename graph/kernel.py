@@ -114,63 +114,74 @@ def generate(prog: Program):
     reduced to [A-Za-z0-9_], and module, class, function and parameter names (which come from
     Python, not from the patch) are matched whole as identifiers.
     """
+    body = Emitter()
+    buf_args = [f"b{i}" for i in range(len(prog.buffers))]
+    arr_args = [f"a{i}" for i in range(len(prog.arrays))]
+    body("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
+    body(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
+    body.indent()
+    _emit_loads(body, prog)
+    body("for i in range(n):")
+    body.indent()
+    body("t = t0 + i")
+    _emit_sample(body, prog)
+    for net in prog.networks:
+        _emit_network(body, net)
+    body.dedent()
+    for bp in prog.plans:
+        for slot in bp.states:
+            body(f"{StateSlot(slot).load()} = {StateSlot(slot).emit()}")
+    body("return 0")
     e = Emitter()
     e(f"# hapticgraph kernel for patch {note(prog.patch.name)}, generated; do not edit.")
     e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
-    e("import collections")
-    e("import math")
-    e("import numba")
+    fns = _emit_imports(e, prog, uses_math="math." in body.source())
+    e()
+    e()
+    return e.source() + body.source(), fns
+
+
+def _emit_imports(e, prog, uses_math):
+    """The modules and block functions the kernel uses (and only those); the functions called."""
+    per_sample = [bp for bp in prog.plans if bp.coef_mode == "per_sample"]
+    if per_sample:
+        e("import collections")
+    if uses_math:
+        e("import math")
     e("from hapticgraph.graph.kernel import jit")
     e()
-    classes, fns = {}, []
+    classes, fns = set(), []
     for bp in prog.plans:
         cls = bp.cls
-        if cls not in classes:
-            tname = ident(cls.type_name, "block type name")
-            alias = f"{tname}_type"
-            classes[cls] = alias
-            module, qual = cls.__module__, cls.__qualname__
-            if "<locals>" in qual:
-                raise KernelSourceError(f"block type {tname!r} must be defined at module level to be compiled")
-            dotted(module, f"module of block type {tname!r}")
-            dotted(qual, f"class name of block type {tname!r}")
-            e(f"from {module} import {qual.split('.')[0]} as {alias}" if "." not in qual else
-              f"import {module} as {alias}_module")
-            if "." in qual:
-                e(f"{alias} = {alias}_module.{qual}")
-            for which in ("derive", "output", "update"):
-                if getattr(cls, which) is not None and (which != "derive" or _needs_derive(prog, cls)):
-                    e(f"{tname}_{which} = jit({alias}.{which})")
-                    fns.append(getattr(cls, which))
+        which = [w for w in ("derive", "output", "update")
+                 if getattr(cls, w) is not None and (w != "derive" or _needs_derive(prog, cls))]
+        if cls in classes or not which:
+            continue
+        classes.add(cls)
+        tname = ident(cls.type_name, "block type name")
+        alias = f"{tname}_type"
+        module, qual = cls.__module__, cls.__qualname__
+        if "<locals>" in qual:
+            raise KernelSourceError(f"block type {tname!r} must be defined at module level to be compiled")
+        dotted(module, f"module of block type {tname!r}")
+        dotted(qual, f"class name of block type {tname!r}")
+        if "." in qual:
+            e(f"import {module} as {alias}_module")
+            e(f"{alias} = {alias}_module.{qual}")
+        else:
+            e(f"from {module} import {qual} as {alias}")
+        for w in which:
+            e(f"{tname}_{w} = jit({alias}.{w})")
+            fns.append(getattr(cls, w))
     if prog.networks:
         from ..blocks import lattice
-        e("from hapticgraph.blocks.lattice import network_step, sheet_step, string_step")
-        fns.append(lattice.network_step)
-    for bp in prog.plans:
-        if bp.coef_mode == "per_sample":
-            fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
-            e(f"P{bp.index} = collections.namedtuple('P{bp.index}', [{fields}])")
-    e()
-    buf_args = [f"b{i}" for i in range(len(prog.buffers))]
-    arr_args = [f"a{i}" for i in range(len(prog.arrays))]
-    e()
-    e("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
-    e(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
-    e.indent()
-    _emit_loads(e, prog)
-    e("for i in range(n):")
-    e.indent()
-    e("t = t0 + i")
-    _emit_sample(e, prog)
-    for net in prog.networks:
-        _emit_network(e, net)
-    e.dedent()
-    for bp in prog.plans:
-        for slot in bp.states:
-            e(f"{StateSlot(slot).load()} = {StateSlot(slot).emit()}")
-    e("return 0")
-    e.dedent()
-    return e.source(), fns
+        steps = sorted({ident(net.step_call()[0], "network step") for net in prog.networks})
+        e(f"from hapticgraph.blocks.lattice import {', '.join(steps)}")
+        fns += [getattr(lattice, name) for name in steps]
+    for bp in per_sample:
+        fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
+        e(f"P{int(bp.index)} = collections.namedtuple('P{int(bp.index)}', [{fields}])")
+    return fns
 
 
 def _args(nodes):
