@@ -21,7 +21,6 @@ plugin file the patch loaded.
 import hashlib
 import inspect
 import json
-import math
 import os
 import platform
 import re
@@ -33,29 +32,18 @@ import types
 
 from ..blocks.core import register_helpers
 from .errors import PatchError, Problem
+from .ir import Coef, KernelSourceError, Live, Output, StateSlot, ident, lit
 from .program import PlanError, Program
 
 # Set by the command line (unless --quiet) to a callable taking one line of text: told when a
 # kernel is compiled rather than loaded from the cache. Library code prints nothing by default.
 notice = None
 
-_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _DOTTED = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
 _jitted = {}
 _loaded = {}            # (cache folder, key) -> (dispatcher, path): kernels this process compiled or loaded
 _warned = []            # the one "cache not usable" warning, given at most once per process
 MANIFEST = "manifest.json"
-
-
-class KernelSourceError(TypeError):
-    """A name that would reach the generated source is not a plain identifier."""
-
-
-def ident(name, what):
-    """`name` if it is an ASCII identifier matched whole, else KernelSourceError."""
-    if not isinstance(name, str) or not _IDENT.fullmatch(name):
-        raise KernelSourceError(f"{what} {name!r} is not a plain identifier; it cannot be compiled")
-    return name
 
 
 def dotted(name, what):
@@ -100,27 +88,6 @@ def cache_dir():
     return path
 
 
-def lit(v):
-    """A Python literal for a static value (numba reads it as a compile-time constant)."""
-    if isinstance(v, bool):
-        return "True" if v else "False"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "math.nan"
-        if math.isinf(v):
-            return "math.inf" if v > 0 else "-math.inf"
-        return repr(v)
-    if isinstance(v, str):
-        # spelled as code points, so no text of a patch is pasted into the source
-        return '"' + "".join(f"\\U{ord(c):08x}" for c in v) + '"'
-
-    if isinstance(v, tuple):
-        return "(" + "".join(lit(float(x)) + ", " for x in v) + ")"
-    raise TypeError(f"no literal for {v!r}")
-
-
 class Emitter:
     """Lines of Python with indentation (the whole code generator leans on this)."""
 
@@ -140,14 +107,6 @@ class Emitter:
         return "\n".join(self.lines) + "\n"
 
 
-def out_var(bp, attr):
-    return f"o{int(bp.index)}_{ident(attr, 'output attribute')}"
-
-
-def state_var(prog, slot):
-    return f"s{slot}"
-
-
 def generate(prog: Program):
     """The kernel module's source for a program, and the Python functions it calls.
 
@@ -155,147 +114,134 @@ def generate(prog: Program):
     reduced to [A-Za-z0-9_], and module, class, function and parameter names (which come from
     Python, not from the patch) are matched whole as identifiers.
     """
+    body = Emitter()
+    buf_args = [f"b{i}" for i in range(len(prog.buffers))]
+    arr_args = [f"a{i}" for i in range(len(prog.arrays))]
+    body("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
+    body(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
+    body.indent()
+    _emit_loads(body, prog)
+    body("for i in range(n):")
+    body.indent()
+    body("t = t0 + i")
+    _emit_sample(body, prog)
+    for net in prog.networks:
+        _emit_network(body, net)
+    body.dedent()
+    for bp in prog.plans:
+        for slot in bp.states:
+            body(f"{StateSlot(slot).load()} = {StateSlot(slot).emit()}")
+    body("return 0")
     e = Emitter()
     e(f"# hapticgraph kernel for patch {note(prog.patch.name)}, generated; do not edit.")
     e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
-    e("import collections")
-    e("import math")
-    e("import numba")
+    fns = _emit_imports(e, prog, uses_math="math." in body.source())
+    e()
+    e()
+    return e.source() + body.source(), fns
+
+
+def _emit_imports(e, prog, uses_math):
+    """The modules and block functions the kernel uses (and only those); the functions called."""
+    per_sample = [bp for bp in prog.plans if bp.coef_mode == "per_sample"]
+    if per_sample:
+        e("import collections")
+    if uses_math:
+        e("import math")
     e("from hapticgraph.graph.kernel import jit")
     e()
-    classes, fns = {}, []
+    classes, fns = set(), []
     for bp in prog.plans:
         cls = bp.cls
-        if cls not in classes:
-            tname = ident(cls.type_name, "block type name")
-            alias = f"{tname}_type"
-            classes[cls] = alias
-            module, qual = cls.__module__, cls.__qualname__
-            if "<locals>" in qual:
-                raise KernelSourceError(f"block type {tname!r} must be defined at module level to be compiled")
-            dotted(module, f"module of block type {tname!r}")
-            dotted(qual, f"class name of block type {tname!r}")
-            e(f"from {module} import {qual.split('.')[0]} as {alias}" if "." not in qual else
-              f"import {module} as {alias}_module")
-            if "." in qual:
-                e(f"{alias} = {alias}_module.{qual}")
-            for which in ("derive", "output", "update"):
-                if getattr(cls, which) is not None and (which != "derive" or _needs_derive(prog, cls)):
-                    e(f"{tname}_{which} = jit({alias}.{which})")
-                    fns.append(getattr(cls, which))
+        which = [w for w in ("derive", "output", "update")
+                 if getattr(cls, w) is not None and (w != "derive" or _needs_derive(prog, cls))]
+        if cls in classes or not which:
+            continue
+        classes.add(cls)
+        tname = ident(cls.type_name, "block type name")
+        alias = f"{tname}_type"
+        module, qual = cls.__module__, cls.__qualname__
+        if "<locals>" in qual:
+            raise KernelSourceError(f"block type {tname!r} must be defined at module level to be compiled")
+        dotted(module, f"module of block type {tname!r}")
+        dotted(qual, f"class name of block type {tname!r}")
+        if "." in qual:
+            e(f"import {module} as {alias}_module")
+            e(f"{alias} = {alias}_module.{qual}")
+        else:
+            e(f"from {module} import {qual} as {alias}")
+        for w in which:
+            e(f"{tname}_{w} = jit({alias}.{w})")
+            fns.append(getattr(cls, w))
     if prog.networks:
         from ..blocks import lattice
-        e("from hapticgraph.blocks.lattice import network_step, sheet_step, string_step")
-        fns.append(lattice.network_step)
-    for bp in prog.plans:
-        if bp.coef_mode == "per_sample":
-            fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
-            e(f"P{bp.index} = collections.namedtuple('P{bp.index}', [{fields}])")
-    e()
-    buf_args = [f"b{i}" for i in range(len(prog.buffers))]
-    arr_args = [f"a{i}" for i in range(len(prog.arrays))]
-    e()
-    e("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
-    e(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
-    e.indent()
+        steps = sorted({ident(net.step_call()[0], "network step") for net in prog.networks})
+        e(f"from hapticgraph.blocks.lattice import {', '.join(steps)}")
+        fns += [getattr(lattice, name) for name in steps]
+    for bp in per_sample:
+        fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
+        e(f"P{int(bp.index)} = collections.namedtuple('P{int(bp.index)}', [{fields}])")
+    return fns
+
+
+def _args(nodes):
+    return ", ".join(node.emit() for node in nodes)
+
+
+def _emit_loads(e, prog):
+    """Scalar state, live parameters and control-rate coefficients into locals (numba keeps
+    them in registers inside the loop)."""
     for bp in prog.plans:
         for slot in bp.states:
-            e(f"s{slot} = state[{int(slot)}]")
+            e(f"{StateSlot(slot).emit()} = {StateSlot(slot).load()}")
     for bp in prog.plans:
         for name, slot in bp.live.items():
-            e(f"l{slot} = live[{int(slot)}]  # {note(bp.name, 30)}.{note(name, 30)}")
+            e(f"{Live(slot).emit()} = {Live(slot).load()}  # {note(bp.name, 30)}.{note(name, 30)}")
         for name, slot in bp.coef_slots.items():
-            kind = "int" if isinstance(bp.coefs[name], int) and not isinstance(bp.coefs[name], bool) else (
-                "bool" if isinstance(bp.coefs[name], bool) else "float")
-            cast = {"int": f"int(coef[{slot}])", "bool": f"coef[{slot}] != 0.0", "float": f"coef[{slot}]"}[kind]
-            e(f"c{int(slot)} = {cast}  # {note(bp.name, 30)}: {note(name, 30)}")
-    e("for i in range(n):")
-    e.indent()
-    e("t = t0 + i")
+            c = Coef(slot, Coef.kind_of(bp.coefs[name]))
+            e(f"{c.emit()} = {c.load()}  # {note(bp.name, 30)}: {note(name, 30)}")
+
+
+def _emit_sample(e, prog):
+    """One sample: every output in schedule order, the recordings, then every update."""
     for bp in prog.plans:
         if bp.cls.output is None and bp.coef_mode != "per_sample":
             continue
         tname = ident(bp.cls.type_name, "block type name")
         e(f"# {note(bp.name, 30)} ({tname})")
         if bp.coef_mode == "per_sample":
-            args = ", ".join(expr(prog, bp, b) for b in bp.derive_args.values())
-            e(f"d{bp.index} = {tname}_derive(P{bp.index}({args}), {lit(prog.fs)})")
+            e(f"d{int(bp.index)} = {tname}_derive(P{int(bp.index)}({_args(bp.derive_args.values())}), {lit(prog.fs)})")
         if bp.cls.output is None:
             continue
-        call = f"{tname}_output({', '.join(expr(prog, bp, b) for b in bp.output_args)})"
-        outs = [out_var(bp, ident(o.attr, "output attribute")) for o in bp.cls.outputs]
-        e(f"{', '.join(outs)} = {call}")
+        outs = [Output(bp.index, o.attr).emit() for o in bp.cls.outputs]
+        e(f"{', '.join(outs)} = {tname}_output({_args(bp.output_args)})")
     for k, (label, binding) in enumerate(prog.records):
-        e(f"rec[i, {k}] = {expr(prog, None, binding)}  # {note(label)}")
+        e(f"rec[i, {k}] = {binding.emit()}  # {note(label)}")
     for bp in prog.plans:
         if bp.cls.update is None:
             continue
-        call = f"{ident(bp.cls.type_name, 'block type name')}_update(" \
-               f"{', '.join(expr(prog, bp, b) for b in bp.update_args)})"
+        call = f"{ident(bp.cls.type_name, 'block type name')}_update({_args(bp.update_args)})"
         if bp.states:
-            e(f"{', '.join(f's{int(slot)}' for slot in bp.states)} = {call}  # {note(bp.name, 30)}")
+            e(f"{_args(StateSlot(slot) for slot in bp.states)} = {call}  # {note(bp.name, 30)}")
         else:
             e(f"{call}  # {note(bp.name, 30)}")
-    for net in prog.networks:
-        e(f"# mass-spring network: {note(', '.join(net.net.names))} ({int(net.net.n)} cells)")
-        frc = int(net.slots["frc"])
-        for flat, sources in net.forces.items():
-            e(f"a{frc}[{int(flat)}] += {expr(prog, None, ('sum', tuple(sources)))}")
-        if net.net.stencil is None:
-            for comp, col, b, inv in net.scales:
-                value = expr(prog, prog.by_name[net.net.components[comp].name], b)
-                e(f"a{int(net.slots['scale'])}[{int(comp)}, {int(col)}] = {'1.0 / ' + value if inv else value}")
-        name, args = net.step_call()
-        e(f"{ident(name, 'network step')}({', '.join(expr(prog, None, a) for a in args)})")
-    e.dedent()
-    for bp in prog.plans:
-        for slot in bp.states:
-            e(f"state[{int(slot)}] = s{int(slot)}")
-    e("return 0")
-    e.dedent()
-    return e.source(), fns
+
+
+def _emit_network(e, net):
+    """A fused mass-spring network's step: wired forces in, live scales, then the update."""
+    e(f"# mass-spring network: {note(', '.join(net.net.names))} ({int(net.net.n)} cells)")
+    frc = int(net.slots["frc"])
+    for flat, force in net.force_sums():
+        e(f"a{frc}[{int(flat)}] += {force.emit()}")
+    if net.net.stencil is None:
+        for comp, col, b in net.scales:
+            e(f"a{int(net.slots['scale'])}[{int(comp)}, {int(col)}] = {b.emit()}")
+    name, args = net.step_call()
+    e(f"{ident(name, 'network step')}({_args(args)})")
 
 
 def _needs_derive(prog, cls):
     return any(bp.cls is cls and bp.coef_mode == "per_sample" for bp in prog.plans)
-
-
-def expr(prog, bp, b):
-    """The kernel expression of a binding."""
-    kind = b[0]
-    if kind == "t":
-        return "t"
-    if kind == "value":
-        return lit(b[1])
-    if kind == "sum":
-        terms = [f"a{int(src[1])}[{int(src[2])}]" if src[0] == "@" else f"ext[i, {int(src[1])}]" if src[0] == "#"
-                 else out_var(prog.by_name[src[0]], src[1]) for src in b[1]]
-        return " + ".join(terms) if terms else "0.0"
-    if kind == "inv":
-        return f"1.0 / {expr(prog, bp, b[1])}"
-    if kind == "out":
-        return out_var(prog.by_name[b[1]], b[2])
-    if kind == "live":
-        return f"l{int(b[1])}"
-    if kind == "coef":
-        return f"c{int(b[1])}"
-    if kind == "dcoef":
-        return f"d{int(bp.index)}['{ident(b[1], 'coefficient name')}']"
-    if kind == "state":
-        return f"s{int(b[1])}"
-    if kind == "buffer":
-        return f"b{int(b[1])}"
-    if kind == "array":
-        return f"a{int(b[1])}"
-    if kind == "mask":
-        return str(int(b[1]))
-    if kind == "ext":
-        return f"ext[i, {int(b[1])}]"
-    if kind == "own":
-        return out_var(bp, b[1])
-    raise ValueError(f"unknown binding {b!r}")
-
-
 
 
 # -- the cache key: everything the machine code depends on --------------------------------------

@@ -2,21 +2,15 @@
 where every function argument of every block comes from, and the arrays that hold state,
 live parameters, coefficients, buffers and recordings.
 
-A binding is a small tuple:
-  ("t",) ("fs",)                       the shared sample counter, the rate
-  ("sum", ((block, out_attr), ...))    an input: the sum of its connections (0.0 if none)
-  ("live", slot)                       an unconnected live parameter, read from `live`
-  ("value", v)                         a static value, baked in as a literal
-  ("array", i)                         a static array too long for a literal
-  ("coef", slot, kind)                 a coefficient re-derived at control rate (`coef` array)
-  ("dcoef", name)                      a coefficient derived every sample (a live input drives it)
-  ("state", slot) ("buffer", i) ("mask", m) ("own", out_attr)
-  ("ext", column)                      a per-sample value a device driver supplies (External)
+A binding is a node of the IR in ir.py (a literal, the sum of an input's connections, a live or
+state slot, a cell's position, a device column, ...), which says its meaning for both engines.
 """
 import numpy as np
 
 from ..blocks.core import _arguments
-from .network import Network, group, is_mass_spring
+from .ir import (ArrayItem, ArrayRef, BufferRef, Coef, Column, Counter, DerivedCoef, Inverse, Literal, Live,
+                 Mask, Output, StateSlot, Sum)
+from .network import Network, group
 
 MAX_LITERAL_ITEMS = 64
 
@@ -46,7 +40,7 @@ class BlockPlan:
     def __init__(self, index, inst):
         self.index, self.inst, self.cls, self.name = index, inst, inst.cls, inst.name
         self.values = dict(inst.values)
-        self.inputs = {}          # public input name -> ((block, out_attr), ...)
+        self.inputs = {}          # public input name -> (source node, ...)
         self.live = {}            # live param -> slot
         self.live_sources = {}    # connected live param -> sources
         self.states = []          # slots
@@ -54,7 +48,7 @@ class BlockPlan:
         self.coef_mode = None     # None | "literal" | "slot" | "per_sample"
         self.coefs = {}
         self.coef_slots = {}
-        self.coef_arrays = {}     # array coefficients of a slot-mode block -> ("array", i)
+        self.coef_arrays = {}     # array coefficients of a slot-mode block -> ArrayRef
         self.output_args = ()
         self.update_args = ()
         self.derive_args = {}     # for per-sample derive: param -> binding
@@ -125,7 +119,7 @@ class Program:
         for bp in self.plans:
             if getattr(bp.cls, "audio_sink", False):
                 for port in bp.inst.inputs:
-                    self.records.append((f"{bp.name}.{port.name}", ("sum", bp.inputs.get(port.name, ()))))
+                    self.records.append((f"{bp.name}.{port.name}", Sum(bp.inputs.get(port.name, ()))))
                 self.channels = len(bp.inst.inputs)
         for net in self.networks:
             net.bind()
@@ -135,7 +129,7 @@ class Program:
         for bp in self.plans:
             if bp.device is not None:
                 self.device_records.append((bp.device, len(self.records)))
-                self.records.append((f"{bp.name}.force -> {bp.device}", ("sum", bp.inputs.get("force", ()))))
+                self.records.append((f"{bp.name}.force -> {bp.device}", Sum(bp.inputs.get("force", ()))))
 
     def _bind_device(self, bp):
         refs = [n for n, p in bp.cls.params.items() if p.refers == "devices"]
@@ -181,8 +175,8 @@ class Program:
         attr = self.patch.blocks[end.block].output(end.port).attr
         col = getattr(self.by_name[end.block], "ext_ports", {}).get(attr)
         if col is not None:
-            return ("#", col)
-        return (end.block, attr)
+            return Column(col)
+        return Output(self.by_name[end.block].index, attr)
 
     def _connect(self, bp):
         net = self.network_of.get(bp.name)
@@ -201,20 +195,20 @@ class Program:
 
     def _array(self, values):
         self.arrays.append(np.asarray(values, dtype=np.float64))
-        return ("array", len(self.arrays) - 1)
+        return ArrayRef(len(self.arrays) - 1)
 
     def _static(self, value):
         value = _freeze(value)
         if isinstance(value, tuple) and len(value) > MAX_LITERAL_ITEMS:
             return self._array(value)
-        return ("value", value)
+        return Literal(value)
 
     def _param_binding(self, bp, name, per_sample=False):
         param = bp.cls.params[name]
         if param.live:
             if name in bp.live_sources:
-                return ("sum", bp.live_sources[name])
-            return ("live", bp.live[name])
+                return Sum(bp.live_sources[name])
+            return Live(bp.live[name])
         return self._static(bp.values[name])
 
     def _bind(self, bp, fn, which):
@@ -228,31 +222,29 @@ class Program:
         out = []
         for arg in _arguments(fn):
             if arg == "t":
-                out.append(("t",))
+                out.append(Counter())
             elif arg == "fs":
-                out.append(("value", self.fs))
+                out.append(Literal(self.fs))
             elif arg in ports_in:
-                out.append(("sum", bp.inputs.get(ports_in[arg], ())))
+                out.append(Sum(bp.inputs.get(ports_in[arg], ())))
             elif arg in cls.params:
                 out.append(self._param_binding(bp, arg))
             elif arg in states:
-                out.append(("state", states[arg]))
+                out.append(StateSlot(states[arg]))
             elif arg in buffers:
-                out.append(("buffer", buffers[arg]))
+                out.append(BufferRef(buffers[arg]))
             elif arg.endswith("_mask") and arg[:-5] in buffers:
-                out.append(("mask", len(self.buffers[buffers[arg[:-5]]]) - 1))
+                out.append(Mask(len(self.buffers[buffers[arg[:-5]]]) - 1))
             elif arg in bp.ext:
-                out.append(("ext", bp.ext[arg]))
+                out.append(Column(bp.ext[arg]))
             elif which == "update" and arg in outs:
-                out.append(("own", arg))
+                out.append(Output(bp.index, arg))
             elif arg in bp.coefs:
                 value = bp.coefs[arg]
                 if bp.coef_mode == "per_sample":
-                    out.append(("dcoef", arg))
+                    out.append(DerivedCoef(bp.index, arg))
                 elif arg in bp.coef_slots:
-                    kind = "int" if isinstance(value, int) and not isinstance(value, bool) else (
-                        "bool" if isinstance(value, bool) else "float")
-                    out.append(("coef", bp.coef_slots[arg], kind))
+                    out.append(Coef(bp.coef_slots[arg], Coef.kind_of(value)))
                 elif arg in bp.coef_arrays:
                     out.append(bp.coef_arrays[arg])
                 else:
@@ -297,21 +289,21 @@ class Program:
             if flat is None:
                 raise PlanError(f"probe {probe!r}: {cell} is cut out of its lattice; it has no ports")
             if port == "force":
-                return ("sum", tuple(net.forces.get(flat, ())))
-            return ("sum", (net.element(end),))
+                return Sum(tuple(net.forces.get(flat, ())))
+            return Sum((net.element(end),))
         if end.index is not None:
             raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no cells to index")
         out = bp.inst.output(port)
         if out is not None:
-            return ("sum", (self._source(Endpoint(block, None, port)),))
+            return Sum((self._source(Endpoint(block, None, port)),))
         for p in bp.inst.inputs:
             if p.name == port:
-                return ("sum", bp.inputs.get(port, ()))
+                return Sum(bp.inputs.get(port, ()))
         if port in bp.cls.params and bp.cls.params[port].live:
             return self._param_binding(bp, port)
         for i, s in enumerate(bp.cls.states):
             if s.attr == port:
-                return ("state", bp.states[i])
+                return StateSlot(bp.states[i])
         names = ([p.name for p in bp.inst.outputs + bp.inst.inputs] + [n for n, p in bp.cls.params.items() if p.live]
                  + [s.attr for s in bp.cls.states])
         raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
@@ -341,7 +333,7 @@ class Program:
                 if k in bp.coef_slots:
                     self.coef[bp.coef_slots[k]] = float(v)
                 elif k in bp.coef_arrays:
-                    target = self.arrays[bp.coef_arrays[k][1]]
+                    target = self.arrays[bp.coef_arrays[k].index]
                     if len(v) != len(target):
                         raise PlanError(f"{block}.{name}: its coefficient {k!r} changes length; that needs a recompile")
                     target[:] = v
@@ -366,7 +358,7 @@ class NetPlan:
         self.forces = {}          # flat index -> [sources]
         self.inv_m0 = net.inv_m.copy()
         self.cut_cells = {}
-        self.scales = []          # (component, column, binding, invert)
+        self.scales = []          # (component, column, binding): the live scale of its cells
 
     def edit(self, end, action):
         net = self.net
@@ -403,7 +395,7 @@ class NetPlan:
     def element(self, end):
         comp = self.net.by_name[end.block]
         flat = comp.flat(end.index)
-        return ("@", self.slots["pos" if end.port == "position" else "vel"], flat)
+        return ArrayItem(self.slots["pos" if end.port == "position" else "vel"], flat)
 
     def add_force(self, end, source):
         flat = self.net.by_name[end.block].flat(end.index)
@@ -413,23 +405,28 @@ class NetPlan:
         """Bindings of the components' live mass, tension, damping (after live slots exist)."""
         for comp in self.net.components:
             bp = self.prog.by_name[comp.name]
-            self.scales.append((comp.index, 0, self.prog._param_binding(bp, "mass"), True))
+            # the mass is read as its inverse: 1 / (the sum of what drives it)
+            self.scales.append((comp.index, 0, Inverse(self.prog._param_binding(bp, "mass"))))
             if "tension" in bp.cls.params:
-                self.scales.append((comp.index, 1, self.prog._param_binding(bp, "tension"), False))
-            self.scales.append((comp.index, 2, self.prog._param_binding(bp, "damping"), False))
+                self.scales.append((comp.index, 1, self.prog._param_binding(bp, "tension")))
+            self.scales.append((comp.index, 2, self.prog._param_binding(bp, "damping")))
+
+    def force_sums(self):
+        """(flat cell index, the sum of the forces wired into it) of every driven cell."""
+        return [(flat, Sum(tuple(sources))) for flat, sources in self.forces.items()]
 
     def step_call(self):
-        """(function name, argument expressions as bindings or literals) of the step."""
+        """(function name, argument bindings) of the step."""
         net, s = self.net, self.slots
         if net.stencil is not None:
             comp = net.components[0]
             fixed = comp.inst.values["boundary"] == "fixed"
-            args = [("array", s["pos"]), ("array", s["vel"]), ("array", s["frc"])]
+            args = [ArrayRef(s["pos"]), ArrayRef(s["vel"]), ArrayRef(s["frc"])]
             if net.stencil == "sheet":
-                args += [("value", comp.shape[0]), ("value", comp.shape[1])]
-            by_col = {col: b for _, col, b, _ in self.scales}
-            args += [("inv", by_col[0]), by_col[1], by_col[2], ("value", net.dt), ("value", fixed)]
+                args += [Literal(comp.shape[0]), Literal(comp.shape[1])]
+            by_col = {col: b for _, col, b in self.scales}
+            args += [by_col[0], by_col[1], by_col[2], Literal(net.dt), Literal(fixed)]
             return f"{net.stencil}_step", args
-        args = [("array", s[k]) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
+        args = [ArrayRef(s[k]) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
                                           "col", "kr", "jrow", "jcol", "jk", "scale")]
-        return "network_step", args + [("value", net.dt)]
+        return "network_step", args + [Literal(net.dt)]

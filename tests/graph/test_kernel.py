@@ -154,3 +154,15 @@ def test_generated_source_holds_no_patch_supplied_string(patches_dir, tmp_path):
     assert [c for c in comments if not re.fullmatch(r"[ A-Za-z0-9_:;,.()>\-]*", c)] == []
     assert any("zqfinger" in c or "zqtip" in c for c in comments)
     shutil.rmtree(tmp_path, ignore_errors=True)
+
+
+def test_kernel_imports_only_what_it_uses(patches_dir):
+    """Every module and name the kernel imports is used in it (issue 12: no unused imports)."""
+    import ast
+    for name in ("karplus_strong.yaml", "cymatic_string.yaml", "string_drives_plate.yaml"):
+        source, _ = generate(Program(load(patches_dir / name)))
+        tree = ast.parse(source)
+        imported = [a.asname or a.name for node in ast.walk(tree) if isinstance(node, (ast.Import, ast.ImportFrom))
+                    for a in node.names]
+        used = {node.id for node in ast.walk(tree) if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load)}
+        assert imported and [n for n in imported if n not in used] == [], name
