@@ -421,41 +421,26 @@ def carry_state(old, new):
     """(dst, src) array pairs that give `new` (a Program) the current state of every block of
     `old` whose type, parameters and incoming connections did not change: its State slots, its
     buffers (ring buffers stay valid because the shared sample counter carries over) and its
-    cells' positions and velocities. Also returns the names kept."""
+    cells' positions and velocities (Program.state_views). Also returns the names kept."""
     if old.rate != new.rate:
         return [], []
     into_old, into_new = _incoming(old.patch), _incoming(new.patch)
     pairs, kept = [], []
-    unchanged = set()
-    for bp in new.plans:
-        obp = old.by_name.get(bp.name)
-        if obp is None or obp.cls is not bp.cls or not _same(obp.values, bp.values):
+    for name in new.patch.order:
+        was = old.patch.blocks.get(name)
+        if was is None or was.cls is not new.patch.blocks[name].cls:
             continue
-        if into_old.get(bp.name, []) != into_new.get(bp.name, []):
+        if not _same(old.block_values(name), new.block_values(name)):
             continue
-        if len(obp.states) != len(bp.states) or len(obp.buffers) != len(bp.buffers):
+        if into_old.get(name, []) != into_new.get(name, []):
             continue
-        unchanged.add(bp.name)
-        for so, sn in zip(obp.states, bp.states):
-            pairs.append((new.state[sn:sn + 1], old.state[so:so + 1]))
-        for bo, bn in zip(obp.buffers, bp.buffers):
-            if old.buffers[bo].shape == new.buffers[bn].shape:
-                pairs.append((new.buffers[bn], old.buffers[bo]))
-        if bp.name not in new.network_of:
-            kept.append(bp.name)
-    for net in new.networks:
-        for comp in net.net.components:
-            onet = old.network_of.get(comp.name)
-            if comp.name not in unchanged or onet is None:
-                continue
-            ocomp = onet.net.by_name.get(comp.name)
-            if ocomp is None or ocomp.count != comp.count:
-                continue
-            sn = slice(comp.offset, comp.offset + comp.count)
-            so = slice(ocomp.offset, ocomp.offset + ocomp.count)
-            pairs.append((net.net.pos[sn], onet.net.pos[so]))
-            pairs.append((net.net.vel[sn], onet.net.vel[so]))
-            kept.append(comp.name)
+        views_old, views_new = old.state_views(name), new.state_views(name)
+        if len(views_old) != len(views_new):
+            continue
+        same_shape = [(vn, vo) for vo, vn in zip(views_old, views_new) if vo.shape == vn.shape]
+        pairs += same_shape
+        if len(same_shape) == len(views_new):
+            kept.append(name)
     return pairs, kept
 
 

@@ -338,6 +338,29 @@ class Program:
                         raise PlanError(f"{block}.{name}: its coefficient {k!r} changes length; that needs a recompile")
                     target[:] = v
 
+    # -- the state a block carries (what a reload keeps) ------------------------------------------
+    def state_views(self, block):
+        """Writable numpy views of everything `block` remembers between samples, always in the
+        same order: each State slot (a view of one element of the state array), each buffer, then
+        for a cell or lattice block its cells' positions and velocities. Writing into a view changes
+        what the next kernel call reads."""
+        bp = self.by_name.get(block)
+        if bp is None:
+            raise PlanError(f"no block named {block!r}")
+        views = [self.state[s:s + 1] for s in bp.states] + [self.buffers[b] for b in bp.buffers]
+        net = self.network_of.get(block)
+        if net is not None:
+            views += net.cell_views(block)
+        return tuple(views)
+
+    def block_values(self, block):
+        """The parameter values `block` plays with now: the patch's, with the changes set_param
+        made between kernel calls (a copy)."""
+        bp = self.by_name.get(block)
+        if bp is None:
+            raise PlanError(f"no block named {block!r}")
+        return dict(bp.values)
+
 
 class NetPlan:
     """A fused mass-spring network's part of the plan: its arrays (registered as kernel array
@@ -430,3 +453,9 @@ class NetPlan:
         args = [ArrayRef(s[k]) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
                                           "col", "kr", "jrow", "jcol", "jk", "scale")]
         return "network_step", args + [Literal(net.dt)]
+
+    def cell_views(self, name):
+        """(positions, velocities) of component `name`'s cells: writable views of the network's arrays."""
+        comp = self.net.by_name[name]
+        cells = slice(comp.offset, comp.offset + comp.count)
+        return self.net.pos[cells], self.net.vel[cells]

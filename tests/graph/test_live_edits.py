@@ -54,3 +54,50 @@ def test_stencil_networks_refuse_cell_edits(string_session):
     s = session(string_session, editable=False)
     with pytest.raises(PlanError, match="editable"):
         s.prog.edit_cell("str", (3,), "lock")
+
+
+DELAY = """
+hapticgraph: 1
+rate: 44100
+blocks:
+  loop: {type: delay, length: 37}
+  out: {type: audio_out, channels: 1}
+connect:
+  - loop.out -> out.ch0
+"""
+
+
+@pytest.mark.parametrize("engine", ["compiled", "python"])
+def test_state_views_of_a_delay_are_its_state_and_ring_buffer(write_patch, engine):
+    """state_views: the State slot, then the ring buffer; writing into the buffer is what the next
+    kernel call reads: 37 samples of it come out, then the silence the line was fed."""
+    from hapticgraph import load
+    from hapticgraph.graph.engine import Session
+    s = Session(load(write_patch(DELAY)), probes=("loop.out",), engine=engine, blocksize=64)
+    views = s.prog.state_views("loop")
+    assert len(views) == 2 and views[0].shape == (1,) and len(views[1]) >= 39
+    assert all(v.flags.writeable for v in views)
+    views[1][:] = 0.25
+    y = s.process(64)[:, -1].copy()
+    assert np.all(y[:37] == 0.25) and np.all(y[37:] == 0.0)
+    assert s.prog.state_views("out") == ()
+    with pytest.raises(PlanError, match="no block named"):
+        s.prog.state_views("lop")
+
+
+def test_state_views_of_a_lattice_are_its_positions_and_velocities(string_session):
+    """A lattice carries no State slots or buffers: its views are its cells' positions and
+    velocities, in that order; the kernel reads what is written into them."""
+    still = string_session(64)
+    moved = string_session(64)
+    pos, vel = moved.prog.state_views("str")
+    assert pos.shape == vel.shape == (41,) and pos.flags.writeable and vel.flags.writeable
+    vel[12] = 1.0                     # the mic hears str[12].velocity
+    a, b = still.process(1)[0, 0], moved.process(1)[0, 0]
+    assert a == 0.0 and b != 0.0
+    pos, vel = moved.prog.state_views("str")
+    assert pos[12] != 0.0             # the kick moved the cell
+    before = vel.copy()
+    pos[30] = 1e-3                   # displaced: its springs pull it back at the next sample
+    moved.process(1)
+    assert vel[30] < 0.0 and vel[30] != before[30]
