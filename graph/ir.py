@@ -8,13 +8,16 @@ so the compiler and the interpreter cannot give one binding two meanings.
 
 Names in emitted code come only from here and from the compiler: slots and indices are integers,
 attributes and coefficient names are checked to be plain identifiers (they come from a block's
-Python declarations, never from a patch's text). The kernel's locals follow one convention:
+Python declarations, never from a patch's text). The kernel's locals are named after the patch
+(`local`, given by Names): BLOCK_attr for a state, live parameter, coefficient, buffer or output
+of block BLOCK (`loop_buf`, `damp_y1`, `damp_gain`, `loop_out`), LATTICE_x / LATTICE_v for a fused
+network's positions and velocities; BLOCK is the block's name reduced to [A-Za-z0-9_] and made
+unique. A node built without a name falls back to its slot: sK lK cK bK aK, oK_attr, dK.
   t        the shared sample counter (i: the sample inside the call)
-  sK lK cK state slot K, live slot K, coefficient slot K (loaded before the sample loop)
-  bK aK    buffer K, array K (kernel arguments)
   ext      the per-sample device/input columns (ext[i, col])
-  oK_attr  output `attr` of block K of the schedule; dK the coefficients block K derives per sample
 """
+import builtins
+import keyword
 import math
 import re
 from dataclasses import dataclass, field
@@ -52,6 +55,60 @@ def lit(v):
     if isinstance(v, tuple):
         return "(" + "".join(lit(float(x)) + ", " for x in v) + ")"
     raise TypeError(f"no literal for {v!r}")
+
+
+# names the kernel module defines or reads besides the patch's locals
+KERNEL_NAMES = frozenset({"math", "np", "numba", "kernel", "t", "t0", "i", "n", "state", "live", "coef",
+                          "rec", "ext", "jit", "collections"})
+
+
+def sanitize(text, limit=40):
+    """An identifier made of `text`: every character outside [A-Za-z0-9_] becomes `_`; prefixed
+    with `b_` if it is empty, starts with a digit, or is a keyword, a builtin or a kernel name."""
+    name = "".join(c if c.isascii() and (c.isalnum() or c == "_") else "_" for c in str(text)[:limit])
+    if not name or name[0].isdigit() or keyword.iskeyword(name) or keyword.issoftkeyword(name) \
+            or hasattr(builtins, name) or name in KERNEL_NAMES:
+        name = "b_" + name
+    return ident(name, "sanitized name")
+
+
+class Names:
+    """The kernel's names: a prefix per block (sanitized, unique among blocks) and locals built
+    from it, each unique in the kernel (suffix _2, _3, ... on a clash) and never a reserved name."""
+
+    def __init__(self, reserved=()):
+        self.taken = set(KERNEL_NAMES) | set(reserved)
+        self.prefixes = set()
+        self.known = {}
+
+    @staticmethod
+    def _unique(base, taken):
+        name, k = base, 2
+        while name in taken or keyword.iskeyword(name) or hasattr(builtins, name):
+            name, k = f"{base}_{k}", k + 1
+        taken.add(name)
+        return name
+
+    def prefix(self, key, text):
+        """The identifier block `key` (named `text` in the patch) prefixes its locals with."""
+        if ("prefix", key) not in self.known:
+            self.known[("prefix", key)] = self._unique(sanitize(text), self.prefixes)
+        return self.known[("prefix", key)]
+
+    def local(self, key, prefix, attr):
+        """The local `prefix_attr` (attr comes from Python declarations), the same for one key."""
+        if key not in self.known:
+            base = f"{ident(prefix, 'name prefix')}_{ident(attr, 'attribute')}"
+            self.known[key] = self._unique(base, self.taken)
+        return self.known[key]
+
+
+def _named(node, fallback):
+    return ident(node.local, "kernel local") if node.local else fallback
+
+
+def _local():
+    return field(default=None, compare=False, repr=False)
 
 
 @dataclass
@@ -154,9 +211,10 @@ class Counter(Node):
 class Live(Node):
     """An unconnected live parameter: live[slot], changed between kernel calls."""
     slot: int
+    local: str = _local()
 
     def emit(self):
-        return f"l{int(self.slot)}"
+        return _named(self, f"l{int(self.slot)}")
 
     def load(self):
         return f"live[{int(self.slot)}]"
@@ -174,9 +232,10 @@ class Coef(Node):
     kind ('float', 'int' or 'bool')."""
     slot: int
     kind: str = "float"
+    local: str = _local()
 
     def emit(self):
-        return f"c{int(self.slot)}"
+        return _named(self, f"c{int(self.slot)}")
 
     def load(self):
         return _CASTS[self.kind].format(int(self.slot))
@@ -195,9 +254,10 @@ class DerivedCoef(Node):
     """A coefficient block `block` derives every sample (a connection drives a live input)."""
     block: int
     name: str
+    local: str = _local()       # the dict of the coefficients
 
     def emit(self):
-        return f"d{int(self.block)}['{ident(self.name, 'coefficient name')}']"
+        return f"{_named(self, f'd{int(self.block)}')}['{ident(self.name, 'coefficient name')}']"
 
     def value(self, frame):
         return frame.derived[self.block][self.name]
@@ -207,9 +267,10 @@ class DerivedCoef(Node):
 class StateSlot(Node):
     """A block's scalar state: state[slot], held in a local inside the kernel."""
     slot: int
+    local: str = _local()
 
     def emit(self):
-        return f"s{int(self.slot)}"
+        return _named(self, f"s{int(self.slot)}")
 
     def load(self):
         return f"state[{int(self.slot)}]"
@@ -222,9 +283,10 @@ class StateSlot(Node):
 class BufferRef(Node):
     """A block's ring buffer (a kernel argument, written in place)."""
     index: int
+    local: str = _local()
 
     def emit(self):
-        return f"b{int(self.index)}"
+        return _named(self, f"b{int(self.index)}")
 
     def value(self, frame):
         return frame.buffers[self.index]
@@ -234,9 +296,10 @@ class BufferRef(Node):
 class ArrayRef(Node):
     """A whole array argument: a long static table, or a fused network's array."""
     index: int
+    local: str = _local()
 
     def emit(self):
-        return f"a{int(self.index)}"
+        return _named(self, f"a{int(self.index)}")
 
     def value(self, frame):
         return frame.arrays[self.index]
@@ -247,9 +310,10 @@ class ArrayItem(Node):
     """One element of an array argument: a cell's position or velocity."""
     array: int
     index: int
+    local: str = _local()       # the array's name
 
     def emit(self):
-        return f"a{int(self.array)}[{int(self.index)}]"
+        return f"{_named(self, f'a{int(self.array)}')}[{int(self.index)}]"
 
     def value(self, frame):
         return float(frame.arrays[self.array][self.index])
@@ -272,9 +336,10 @@ class Output(Node):
     """Output `attr` of the block at `block` in the schedule, computed earlier this sample."""
     block: int
     attr: str
+    local: str = _local()
 
     def emit(self):
-        return f"o{int(self.block)}_{ident(self.attr, 'output attribute')}"
+        return _named(self, f"o{int(self.block)}_{ident(self.attr, 'output attribute')}")
 
     def value(self, frame):
         return frame.outs[(self.block, self.attr)]

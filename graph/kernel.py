@@ -32,7 +32,7 @@ import types
 
 from ..blocks.core import register_helpers
 from .errors import PatchError, Problem
-from .ir import Coef, KernelSourceError, Live, Output, StateSlot, ident, lit
+from .ir import KernelSourceError, ident, lit
 from .program import PlanError, Program
 
 # Set by the command line (unless --quiet) to a callable taking one line of text: told when a
@@ -115,8 +115,8 @@ def generate(prog: Program):
     Python, not from the patch) are matched whole as identifiers.
     """
     body = Emitter()
-    buf_args = [f"b{i}" for i in range(len(prog.buffers))]
-    arr_args = [f"a{i}" for i in range(len(prog.arrays))]
+    buf_args = [node.emit() for node in prog.buffer_nodes]
+    arr_args = [node.emit() for node in prog.array_nodes]
     body("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
     body(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
     body.indent()
@@ -129,8 +129,8 @@ def generate(prog: Program):
         _emit_network(body, net)
     body.dedent()
     for bp in prog.plans:
-        for slot in bp.states:
-            body(f"{StateSlot(slot).load()} = {StateSlot(slot).emit()}")
+        for node in bp.state_nodes:
+            body(f"{node.load()} = {node.emit()}")
     body("return 0")
     e = Emitter()
     e(f"# hapticgraph kernel for patch {note(prog.patch.name)}, generated; do not edit.")
@@ -180,7 +180,8 @@ def _emit_imports(e, prog, uses_math):
         fns += [getattr(lattice, name) for name in steps]
     for bp in per_sample:
         fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
-        e(f"P{int(bp.index)} = collections.namedtuple('P{int(bp.index)}', [{fields}])")
+        params = ident(prog.derived(bp)[1], "parameter tuple")
+        e(f"{params} = collections.namedtuple('{params}', [{fields}])")
     return fns
 
 
@@ -192,14 +193,11 @@ def _emit_loads(e, prog):
     """Scalar state, live parameters and control-rate coefficients into locals (numba keeps
     them in registers inside the loop)."""
     for bp in prog.plans:
-        for slot in bp.states:
-            e(f"{StateSlot(slot).emit()} = {StateSlot(slot).load()}")
+        for node in bp.state_nodes:
+            e(f"{node.emit()} = {node.load()}")
     for bp in prog.plans:
-        for name, slot in bp.live.items():
-            e(f"{Live(slot).emit()} = {Live(slot).load()}  # {note(bp.name, 30)}.{note(name, 30)}")
-        for name, slot in bp.coef_slots.items():
-            c = Coef(slot, Coef.kind_of(bp.coefs[name]))
-            e(f"{c.emit()} = {c.load()}  # {note(bp.name, 30)}: {note(name, 30)}")
+        for node in list(bp.live_nodes.values()) + list(bp.coef_nodes.values()):
+            e(f"{node.emit()} = {node.load()}")
 
 
 def _emit_sample(e, prog):
@@ -210,10 +208,11 @@ def _emit_sample(e, prog):
         tname = ident(bp.cls.type_name, "block type name")
         e(f"# {note(bp.name, 30)} ({tname})")
         if bp.coef_mode == "per_sample":
-            e(f"d{int(bp.index)} = {tname}_derive(P{int(bp.index)}({_args(bp.derive_args.values())}), {lit(prog.fs)})")
+            coefs, params = (ident(name, "derived coefficients") for name in prog.derived(bp))
+            e(f"{coefs} = {tname}_derive({params}({_args(bp.derive_args.values())}), {lit(prog.fs)})")
         if bp.cls.output is None:
             continue
-        outs = [Output(bp.index, o.attr).emit() for o in bp.cls.outputs]
+        outs = [prog.output(bp, o.attr).emit() for o in bp.cls.outputs]
         e(f"{', '.join(outs)} = {tname}_output({_args(bp.output_args)})")
     for k, (label, binding) in enumerate(prog.records):
         e(f"rec[i, {k}] = {binding.emit()}  # {note(label)}")
@@ -222,20 +221,20 @@ def _emit_sample(e, prog):
             continue
         call = f"{ident(bp.cls.type_name, 'block type name')}_update({_args(bp.update_args)})"
         if bp.states:
-            e(f"{_args(StateSlot(slot) for slot in bp.states)} = {call}  # {note(bp.name, 30)}")
+            e(f"{_args(bp.state_nodes)} = {call}")
         else:
-            e(f"{call}  # {note(bp.name, 30)}")
+            e(call)
 
 
 def _emit_network(e, net):
     """A fused mass-spring network's step: wired forces in, live scales, then the update."""
     e(f"# mass-spring network: {note(', '.join(net.net.names))} ({int(net.net.n)} cells)")
-    frc = int(net.slots["frc"])
+    frc, scale = net.array("frc").emit(), net.array("scale").emit()
     for flat, force in net.force_sums():
-        e(f"a{frc}[{int(flat)}] += {force.emit()}")
+        e(f"{frc}[{int(flat)}] += {force.emit()}")
     if net.net.stencil is None:
         for comp, col, b in net.scales:
-            e(f"a{int(net.slots['scale'])}[{int(comp)}, {int(col)}] = {b.emit()}")
+            e(f"{scale}[{int(comp)}, {int(col)}] = {b.emit()}")
     name, args = net.step_call()
     e(f"{ident(name, 'network step')}({_args(args)})")
 

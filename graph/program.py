@@ -9,7 +9,7 @@ import numpy as np
 
 from ..blocks.core import _arguments
 from .ir import (ArrayItem, ArrayRef, BufferRef, Coef, Column, Counter, DerivedCoef, Inverse, Literal, Live,
-                 Mask, Output, StateSlot, Sum)
+                 Mask, Names, Output, StateSlot, Sum)
 from .network import Network, group
 
 MAX_LITERAL_ITEMS = 64
@@ -44,6 +44,10 @@ class BlockPlan:
         self.live = {}            # live param -> slot
         self.live_sources = {}    # connected live param -> sources
         self.states = []          # slots
+        self.state_nodes = []     # StateSlot of each state, named after the block
+        self.live_nodes = {}      # live param -> Live
+        self.coef_nodes = {}      # coefficient -> Coef
+        self.ident = None         # the sanitized, unique prefix of the block's kernel locals
         self.buffers = []         # indices into Program.buffers
         self.coef_mode = None     # None | "literal" | "slot" | "per_sample"
         self.coefs = {}
@@ -71,7 +75,11 @@ class Program:
         self.ext_columns = []     # (device, column name)
         for bp in self.plans:
             self._bind_device(bp)
+        self.names = Names(_module_names(self.plans))
+        for bp in self.plans:
+            bp.ident = self.names.prefix(bp.index, bp.name)
         self.buffers, self.arrays = [], []
+        self.buffer_nodes, self.array_nodes = [], []     # BufferRef / ArrayRef of each, named
         self.networks = [NetPlan(self, Network(members, springs, self.fs, stencils=not editable))
                          for members, springs in group(patch.blocks)]
         self.network_of = {name: net for net in self.networks for name in net.net.names}
@@ -83,12 +91,15 @@ class Program:
             for name, param in cls.params.items():
                 if param.live and name not in bp.live_sources:
                     bp.live[name] = len(live)
+                    bp.live_nodes[name] = Live(len(live), self._local("live", bp, name))
                     live.append(float(bp.values[name]))
             for s in cls.states:
                 bp.states.append(len(state))
+                bp.state_nodes.append(StateSlot(len(state), self._local("state", bp, s.attr)))
                 state.append(s.value(p, self.fs))
             for b in cls.buffers:
                 bp.buffers.append(len(self.buffers))
+                self.buffer_nodes.append(BufferRef(len(self.buffers), self._local("buffer", bp, b.attr)))
                 self.buffers.append(np.zeros(b.length(p, self.fs)))
             if cls.derive is not None:
                 live_read = {n for n in cls.derive_reads if cls.params[n].live}
@@ -102,9 +113,10 @@ class Program:
                 if bp.coef_mode == "slot":
                     for k, v in bp.coefs.items():
                         if isinstance(v, tuple):   # an array coefficient: rewritten in place
-                            bp.coef_arrays[k] = self._array(v)
+                            bp.coef_arrays[k] = self._array(v, bp.ident, k)
                         else:
                             bp.coef_slots[k] = len(coef)
+                            bp.coef_nodes[k] = Coef(len(coef), Coef.kind_of(v), self._local("coef", bp, k))
                             coef.append(float(v))
         for bp in self.plans:
             bp.output_args = self._bind(bp, bp.cls.output, "output")
@@ -176,7 +188,18 @@ class Program:
         col = getattr(self.by_name[end.block], "ext_ports", {}).get(attr)
         if col is not None:
             return Column(col)
-        return Output(self.by_name[end.block].index, attr)
+        return self.output(self.by_name[end.block], attr)
+
+    def _local(self, kind, bp, attr):
+        return self.names.local((kind, bp.index, attr), bp.ident, attr)
+
+    def output(self, bp, attr):
+        """The Output node of `attr` of block bp, named after the block (`loop_out`)."""
+        return Output(bp.index, attr, self._local("out", bp, attr))
+
+    def derived(self, bp):
+        """The name of the coefficients block bp derives every sample, and of its parameter tuple."""
+        return self._local("derived", bp, "coefs"), self._local("params", bp, "params")
 
     def _connect(self, bp):
         net = self.network_of.get(bp.name)
@@ -193,14 +216,17 @@ class Program:
         bp.inputs = {k: tuple(v) for k, v in bp.inputs.items()}
         bp.live_sources = {k: tuple(v) for k, v in bp.live_sources.items()}
 
-    def _array(self, values):
+    def _array(self, values, prefix, attr):
+        """A kernel array argument, named `prefix_attr`; its ArrayRef."""
+        node = ArrayRef(len(self.arrays), self.names.local(("array", len(self.arrays)), prefix, attr))
         self.arrays.append(np.asarray(values, dtype=np.float64))
-        return ArrayRef(len(self.arrays) - 1)
+        self.array_nodes.append(node)
+        return node
 
-    def _static(self, value):
+    def _static(self, value, bp, attr):
         value = _freeze(value)
         if isinstance(value, tuple) and len(value) > MAX_LITERAL_ITEMS:
-            return self._array(value)
+            return self._array(value, bp.ident, attr)
         return Literal(value)
 
     def _param_binding(self, bp, name, per_sample=False):
@@ -208,8 +234,8 @@ class Program:
         if param.live:
             if name in bp.live_sources:
                 return Sum(bp.live_sources[name])
-            return Live(bp.live[name])
-        return self._static(bp.values[name])
+            return bp.live_nodes[name]
+        return self._static(bp.values[name], bp, name)
 
     def _bind(self, bp, fn, which):
         if fn is None:
@@ -217,7 +243,7 @@ class Program:
         cls = bp.cls
         ports_in = {p.attr: p.name for p in bp.inst.inputs}
         outs = {o.attr for o in cls.outputs}
-        states = {s.attr: bp.states[i] for i, s in enumerate(cls.states)}
+        states = {s.attr: bp.state_nodes[i] for i, s in enumerate(cls.states)}
         buffers = {b.attr: bp.buffers[i] for i, b in enumerate(cls.buffers)}
         out = []
         for arg in _arguments(fn):
@@ -230,25 +256,25 @@ class Program:
             elif arg in cls.params:
                 out.append(self._param_binding(bp, arg))
             elif arg in states:
-                out.append(StateSlot(states[arg]))
+                out.append(states[arg])
             elif arg in buffers:
-                out.append(BufferRef(buffers[arg]))
+                out.append(self.buffer_nodes[buffers[arg]])
             elif arg.endswith("_mask") and arg[:-5] in buffers:
                 out.append(Mask(len(self.buffers[buffers[arg[:-5]]]) - 1))
             elif arg in bp.ext:
                 out.append(Column(bp.ext[arg]))
             elif which == "update" and arg in outs:
-                out.append(Output(bp.index, arg))
+                out.append(self.output(bp, arg))
             elif arg in bp.coefs:
                 value = bp.coefs[arg]
                 if bp.coef_mode == "per_sample":
-                    out.append(DerivedCoef(bp.index, arg))
+                    out.append(DerivedCoef(bp.index, arg, self.derived(bp)[0]))
                 elif arg in bp.coef_slots:
-                    out.append(Coef(bp.coef_slots[arg], Coef.kind_of(value)))
+                    out.append(bp.coef_nodes[arg])
                 elif arg in bp.coef_arrays:
                     out.append(bp.coef_arrays[arg])
                 else:
-                    out.append(self._static(value))
+                    out.append(self._static(value, bp, arg))
             else:
                 raise PlanError(f"block {bp.name!r} ({cls.type_name}): {which}() argument {arg!r} "
                                 "is bound to nothing")
@@ -303,7 +329,7 @@ class Program:
             return self._param_binding(bp, port)
         for i, s in enumerate(bp.cls.states):
             if s.attr == port:
-                return StateSlot(bp.states[i])
+                return bp.state_nodes[i]
         names = ([p.name for p in bp.inst.outputs + bp.inst.inputs] + [n for n, p in bp.cls.params.items() if p.live]
                  + [s.attr for s in bp.cls.states])
         raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
@@ -362,6 +388,18 @@ class Program:
         return dict(bp.values)
 
 
+_SHORT = {"pos": "x", "vel": "v", "frc": "f"}     # a network's arrays as a kernel names them: str_x, str_v
+
+
+def _module_names(plans):
+    """The names the kernel module defines: each block type's functions, the network steps."""
+    names = {"network_step", "string_step", "sheet_step"}
+    for bp in plans:
+        t = bp.cls.type_name
+        names |= {f"{t}_type", f"{t}_type_module", f"{t}_derive", f"{t}_output", f"{t}_update"}
+    return names
+
+
 class NetPlan:
     """A fused mass-spring network's part of the plan: its arrays (registered as kernel array
     arguments, updated in place), the forces wired into its cells, the live values of its
@@ -372,12 +410,14 @@ class NetPlan:
         names = ["pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr",
                  "jrow", "jcol", "jk"]
         self.slots = {}
-        for name in names:
-            self.slots[name] = len(prog.arrays)
-            prog.arrays.append(getattr(net, name))
+        prefix = prog.by_name[net.names[0]].ident
         self.scale = np.zeros((len(net.components), 3))
-        self.slots["scale"] = len(prog.arrays)
-        prog.arrays.append(self.scale)
+        for name in names + ["scale"]:
+            self.slots[name] = len(prog.arrays)
+            value = self.scale if name == "scale" else getattr(net, name)
+            local = prog.names.local(("array", len(prog.arrays)), prefix, _SHORT.get(name, name))
+            prog.arrays.append(value)
+            prog.array_nodes.append(ArrayRef(self.slots[name], local))
         self.forces = {}          # flat index -> [sources]
         self.inv_m0 = net.inv_m.copy()
         self.cut_cells = {}
@@ -415,10 +455,15 @@ class NetPlan:
             raise PlanError(f"unknown cell edit {action!r} (lock, unlock, cut)")
         return flat
 
+    def array(self, name):
+        """The ArrayRef of the network's array `name` (pos, vel, frc, ..., scale)."""
+        return self.prog.array_nodes[self.slots[name]]
+
     def element(self, end):
         comp = self.net.by_name[end.block]
         flat = comp.flat(end.index)
-        return ArrayItem(self.slots["pos" if end.port == "position" else "vel"], flat)
+        node = self.prog.array_nodes[self.slots["pos" if end.port == "position" else "vel"]]
+        return ArrayItem(node.index, flat, node.local)
 
     def add_force(self, end, source):
         flat = self.net.by_name[end.block].flat(end.index)
@@ -440,18 +485,18 @@ class NetPlan:
 
     def step_call(self):
         """(function name, argument bindings) of the step."""
-        net, s = self.net, self.slots
+        net = self.net
         if net.stencil is not None:
             comp = net.components[0]
             fixed = comp.inst.values["boundary"] == "fixed"
-            args = [ArrayRef(s["pos"]), ArrayRef(s["vel"]), ArrayRef(s["frc"])]
+            args = [self.array(k) for k in ("pos", "vel", "frc")]
             if net.stencil == "sheet":
                 args += [Literal(comp.shape[0]), Literal(comp.shape[1])]
             by_col = {col: b for _, col, b in self.scales}
             args += [by_col[0], by_col[1], by_col[2], Literal(net.dt), Literal(fixed)]
             return f"{net.stencil}_step", args
-        args = [ArrayRef(s[k]) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
-                                          "col", "kr", "jrow", "jcol", "jk", "scale")]
+        args = [self.array(k) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
+                                        "col", "kr", "jrow", "jcol", "jk", "scale")]
         return "network_step", args + [Literal(net.dt)]
 
     def cell_views(self, name):

@@ -209,3 +209,21 @@ def test_lattice_mass_from_two_connections_is_their_sum_on_both_engines(tmp_path
     f1 = float(discrete_frequency(2.0 * math.sqrt(144100.0 / mass) * math.sin(math.pi / (2 * 61)), 44100))
     assert abs(peak - f1) < 0.02 * f1, (peak, f1)
     assert abs(f1 - 254.0) < 1.0
+
+
+def test_names_are_sanitized_prefixed_and_unique():
+    """Issue 12.6: patch text becomes an inert identifier; clashes get _2, _3; reserved words a prefix."""
+    from hapticgraph.graph.ir import Names, ident, sanitize
+    assert sanitize("x; import os") == "x__import_os"
+    assert sanitize("9lives") == "b_9lives" and sanitize("lambda") == "b_lambda" and sanitize("") == "b_"
+    assert sanitize("len") == "b_len" and sanitize("state") == "b_state" and sanitize("pâte") == "p_te"
+    names = Names(reserved={"delay_output"})
+    a, b, c = names.prefix(0, "x;y"), names.prefix(1, "x y"), names.prefix(2, "x_y")
+    assert (a, b, c) == ("x_y", "x_y_2", "x_y_3") and names.prefix(0, "x;y") == "x_y"
+    assert names.local(("out", 0), "delay", "output") == "delay_output_2"   # a module name is never shadowed
+    assert names.local(("s", 1), "x_y", "z") == "x_y_z" and names.local(("s", 2), "x", "y_z") == "x_y_z_2"
+    assert names.local(("s", 1), "x_y", "z") == "x_y_z"
+    for text in ("x; import os", "os.system('touch PWNED')", "a\nb", "__import__", "\U0001F600" * 50):
+        ident(sanitize(text), "name")
+    with pytest.raises(KernelSourceError):
+        names.local(("bad", 0), "x", "y; import os")

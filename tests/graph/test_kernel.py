@@ -123,8 +123,9 @@ def _strings(node):
 
 
 def test_generated_source_holds_no_patch_supplied_string(patches_dir, tmp_path):
-    """Code lines hold no string of the patch (names, devices, choices, the file name); comments
-    hold names reduced to [A-Za-z0-9_] only."""
+    """Code lines hold no string of the patch (names, devices, choices, the file name) except
+    block names reduced to the identifiers the kernel's locals are named after; comments hold
+    names reduced to [A-Za-z0-9_] only."""
     import re
     import shutil
     import yaml
@@ -143,7 +144,9 @@ def test_generated_source_holds_no_patch_supplied_string(patches_dir, tmp_path):
     source, _ = generate(prog)
     code = "\n".join(line.split("#", 1)[0] for line in source.splitlines())
     comments = [line.split("#", 1)[1] for line in source.splitlines() if "#" in line]
-    assert "zq" not in code
+    named = set(prog.names.known.values())
+    assert [w for w in re.findall(r"\w*zq\w*", code) if w not in named] == []
+    assert "zqfinger_pos" in code or "zqtip_y" in code      # a block's locals are named after it
     supplied = set(_strings(yaml.safe_load(marked))) | {path.name, patch.name}
     for s in supplied:
         if len(s) >= 3 and not re.fullmatch(r"[A-Za-z0-9_.]*", s):
@@ -166,3 +169,50 @@ def test_kernel_imports_only_what_it_uses(patches_dir):
                     for a in node.names]
         used = {node.id for node in ast.walk(tree) if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load)}
         assert imported and [n for n in imported if n not in used] == [], name
+
+
+def test_kernel_locals_are_named_after_the_patch(patches_dir):
+    """Issue 12.6: the delay `loop` keeps its ring buffer in `loop_line` and its output in `loop_y`,
+    the lowpass `damp` its live gain in `damp_gain`."""
+    source, _ = generate(Program(load(patches_dir / "karplus_strong.yaml")))
+    assert "def kernel(n, t0, state, live, coef, rec, ext, loop_line, damp_hist):" in source
+    for name in ("loop_y = delay_output(loop_line,", "damp_gain = live[", "loop_y1 = state[", "pick_y + damp_y"):
+        assert name in source, name
+
+
+NAMES_ALIKE = """hapticgraph: 1
+blocks:
+  pick: {type: pluck, time: 0.0, force: 1.0, duration: 0.0005}
+  t: {type: gain, gain: 0.5}
+  b_t: {type: gain, gain: 0.25}
+  math: {type: gain, gain: 2.0}
+  mic: {type: mic, gain: 0.5}
+  out: {type: audio_out, channels: 2}
+connect:
+  - pick.out -> t.in
+  - t.out -> b_t.in
+  - b_t.out -> math.in
+  - math.out -> mic.in
+  - mic.left -> out.left
+  - mic.right -> out.right
+"""
+
+
+def test_blocks_whose_names_sanitize_alike_get_distinct_identifiers(tmp_path):
+    """`t` is a kernel name, so its locals are prefixed (b_t); the block named `b_t` then gets
+    b_t_2; both engines agree sample for sample."""
+    from hapticgraph.graph.interpreter import Interpreter
+    (tmp_path / "p.yaml").write_text(NAMES_ALIKE)
+    prog = Program(load(tmp_path / "p.yaml"))
+    prefixes = {bp.name: bp.ident for bp in prog.plans}
+    assert prefixes["t"] == "b_t" and prefixes["b_t"] == "b_t_2" and prefixes["math"] == "b_math"
+    assert len(set(prefixes.values())) == len(prefixes)
+    source, _ = generate(prog)
+    assert "b_t_gain" in source and "b_t_2_gain" in source and "b_math_gain" in source
+    compiled = np.zeros((64, len(prog.records)))
+    CompiledKernel(prog).run(0, compiled, np.zeros((64, 0)))
+    ref_prog = Program(load(tmp_path / "p.yaml"))
+    reference = np.zeros_like(compiled)
+    Interpreter(ref_prog).run(0, reference, np.zeros((64, 0)))
+    assert np.any(compiled != 0.0)
+    np.testing.assert_array_equal(compiled, reference)
