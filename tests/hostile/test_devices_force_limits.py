@@ -4,8 +4,6 @@ naming the device, and no NaN, infinity or out-of-range force reaches a device."
 import json
 
 import pytest
-
-
 from hostile_env import assert_patch_error, run_hg, run_py
 
 

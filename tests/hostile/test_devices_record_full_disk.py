@@ -8,8 +8,6 @@ import soundfile
 
 from audio_env import ASOUNDRC, alsa_file_env
 from hapticgraph.devices.record import Take
-
-
 from hostile_env import run_hg, run_py
 
 PATCH = """\
