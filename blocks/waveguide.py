@@ -28,16 +28,17 @@ class Delay(Block, name="delay"):
             n = int(math.floor(p.length - 0.5))
             d = p.length - n
             a = (1.0 - d) / (1.0 + d)
-            return {"n": n, "c0": a, "c1": 1.0, "a": a}
+            return {"n": n, "c0": a, "c1": 1.0, "a": a, "whole": False}
         n = int(math.floor(p.length))
         f = p.length - n
-        return {"n": n, "c0": 1.0 - f, "c1": f, "a": 0.0}
+        return {"n": n, "c0": 1.0 - f, "c1": f, "a": 0.0, "whole": f == 0.0}
 
     @staticmethod
-    def output(line, line_mask, t, n, c0, c1, a, y1):
-        if c1 == 0.0 and a == 0.0:
-            # a whole-number length: c1 and a are literals, so this branch folds away at compile
-            # time (strict IEEE arithmetic could not drop the `0.0 * x` terms by itself)
+    def output(line, line_mask, t, n, c0, c1, a, y1, whole):
+        if whole:
+            # a whole-number length: `whole` is a flag, part of the kernel's structure, so this
+            # branch folds away at compile time (strict IEEE arithmetic could not drop the
+            # `0.0 * x` terms by itself); the length itself is data
             return c0 * line[(t - n) & line_mask]
         return c0 * line[(t - n) & line_mask] + c1 * line[(t - n - 1) & line_mask] - a * y1
 

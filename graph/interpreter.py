@@ -50,8 +50,8 @@ class Interpreter:
         from ..blocks import lattice
         p = self.prog
         frc = p.arrays[net.slots["frc"]]
-        for flat, force in net.force_sums():
-            frc[flat] += force.value(frame)
+        for point, force in net.force_sums():
+            frc[point.value(frame)] += force.value(frame)
         if net.net.stencil is None:
             scale = p.arrays[net.slots["scale"]]
             for comp, col, b in net.scales:

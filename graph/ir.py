@@ -223,13 +223,18 @@ class Live(Node):
         return float(frame.live[self.slot])
 
 
-_CASTS = {"float": "coef[{}]", "int": "int(coef[{}])", "bool": "coef[{}] != 0.0"}
+# an "index" (a ring mask, a cell's place) is known to LLVM to be ≥ 0 through the mask, so that
+# indexing with it needs no wraparound test for negative indices
+INDEX_BITS = (1 << 48) - 1
+_CASTS = {"float": "coef[{}]", "int": "int(coef[{}])", "bool": "coef[{}] != 0.0",
+          "index": "(int(coef[{}]) & " + str(INDEX_BITS) + ")"}
 
 
 @dataclass(frozen=True)
 class Coef(Node):
-    """A coefficient re-derived at control rate, kept as a float in coef[slot] and read as its
-    kind ('float', 'int' or 'bool')."""
+    """A number the kernel reads as data: a coefficient re-derived at control rate or a static
+    number of the patch, kept as a float in coef[slot] and read as its kind ('float', 'int',
+    'bool', or 'index': a non-negative integer below 2**48)."""
     slot: int
     kind: str = "float"
     local: str = _local()
@@ -242,6 +247,8 @@ class Coef(Node):
 
     def value(self, frame):
         v = float(frame.coef[self.slot])
+        if self.kind == "index":
+            return int(v) & INDEX_BITS
         return int(v) if self.kind == "int" else (v != 0.0 if self.kind == "bool" else v)
 
     @staticmethod
@@ -307,16 +314,17 @@ class ArrayRef(Node):
 
 @dataclass(frozen=True)
 class ArrayItem(Node):
-    """One element of an array argument: a cell's position or velocity."""
+    """One element of an array argument (a cell's position or velocity); its index is a node
+    (a number the kernel reads as data, so a lattice's size never reaches the source)."""
     array: int
-    index: int
+    index: Node
     local: str = _local()       # the array's name
 
     def emit(self):
-        return f"{_named(self, f'a{int(self.array)}')}[{int(self.index)}]"
+        return f"{_named(self, f'a{int(self.array)}')}[{self.index.emit()}]"
 
     def value(self, frame):
-        return float(frame.arrays[self.array][self.index])
+        return float(frame.arrays[self.array][self.index.value(frame)])
 
 
 @dataclass(frozen=True)
@@ -343,15 +351,3 @@ class Output(Node):
 
     def value(self, frame):
         return frame.outs[(self.block, self.attr)]
-
-
-@dataclass(frozen=True)
-class Mask(Node):
-    """A ring buffer's size − 1, for indexing through the shared counter (a literal)."""
-    mask: int
-
-    def emit(self):
-        return str(int(self.mask))
-
-    def value(self, frame):
-        return self.mask

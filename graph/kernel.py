@@ -133,7 +133,7 @@ def generate(prog: Program):
             body(f"{node.load()} = {node.emit()}")
     body("return 0")
     e = Emitter()
-    e(f"# hapticgraph kernel for patch {note(prog.patch.name)}, generated; do not edit.")
+    e("# hapticgraph kernel, generated; do not edit. Numbers are data (coef); this text is the structure.")
     e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
     fns = _emit_imports(e, prog, uses_math="math." in body.source())
     e()
@@ -198,6 +198,8 @@ def _emit_loads(e, prog):
     for bp in prog.plans:
         for node in list(bp.live_nodes.values()) + list(bp.coef_nodes.values()):
             e(f"{node.emit()} = {node.load()}")
+    for node in prog.number_nodes:
+        e(f"{node.emit()} = {node.load()}")
 
 
 def _emit_sample(e, prog):
@@ -228,10 +230,10 @@ def _emit_sample(e, prog):
 
 def _emit_network(e, net):
     """A fused mass-spring network's step: wired forces in, live scales, then the update."""
-    e(f"# mass-spring network: {note(', '.join(net.net.names))} ({int(net.net.n)} cells)")
+    e(f"# mass-spring network: {note(', '.join(net.net.names))}")
     frc, scale = net.array("frc").emit(), net.array("scale").emit()
-    for flat, force in net.force_sums():
-        e(f"{frc}[{int(flat)}] += {force.emit()}")
+    for point, force in net.force_sums():
+        e(f"{frc}[{point.emit()}] += {force.emit()}")
     if net.net.stencil is None:
         for comp, col, b in net.scales:
             e(f"{scale}[{int(comp)}, {int(col)}] = {b.emit()}")

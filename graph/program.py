@@ -9,10 +9,9 @@ import numpy as np
 
 from ..blocks.core import _arguments
 from .ir import (ArrayItem, ArrayRef, BufferRef, Coef, Column, Counter, DerivedCoef, Inverse, Literal, Live,
-                 Mask, Names, Output, StateSlot, Sum)
+                 Names, Output, StateSlot, Sum)
 from .network import Network, group
 
-MAX_LITERAL_ITEMS = 64
 
 
 class PlanError(Exception):
@@ -78,12 +77,14 @@ class Program:
         self.names = Names(_module_names(self.plans))
         for bp in self.plans:
             bp.ident = self.names.prefix(bp.index, bp.name)
+        self.numbers, self.number_nodes, self._numbered = [], [], {}
         self.buffers, self.arrays = [], []
         self.buffer_nodes, self.array_nodes = [], []     # BufferRef / ArrayRef of each, named
         self.networks = [NetPlan(self, Network(members, springs, self.fs, stencils=not editable))
                          for members, springs in group(patch.blocks)]
         self.network_of = {name: net for net in self.networks for name in net.net.names}
-        state, live, coef = [], [], []
+        state, live = [], []
+        coef = self.numbers       # the coef array: control-rate coefficients and every static number
         for bp in self.plans:
             self._connect(bp)
         for bp in self.plans:
@@ -103,17 +104,16 @@ class Program:
                 self.buffers.append(np.zeros(b.length(p, self.fs)))
             if cls.derive is not None:
                 live_read = {n for n in cls.derive_reads if cls.params[n].live}
-                if live_read & set(bp.live_sources):
-                    bp.coef_mode = "per_sample"
-                elif live_read:
-                    bp.coef_mode = "slot"
-                else:
-                    bp.coef_mode = "literal"
+                # per sample when a connection drives a live parameter derive reads; else at
+                # control rate, into coef slots (re-derived by set_param when it reads a live one)
+                bp.coef_mode = "per_sample" if live_read & set(bp.live_sources) else "slot"
                 bp.coefs = {k: _freeze(v) for k, v in cls.derive(p, self.fs).items()}
                 if bp.coef_mode == "slot":
                     for k, v in bp.coefs.items():
                         if isinstance(v, tuple):   # an array coefficient: rewritten in place
                             bp.coef_arrays[k] = self._array(v, bp.ident, k)
+                        elif isinstance(v, bool) and not live_read:
+                            continue          # a flag fixed by the patch: structure (a literal)
                         else:
                             bp.coef_slots[k] = len(coef)
                             bp.coef_nodes[k] = Coef(len(coef), Coef.kind_of(v), self._local("coef", bp, k))
@@ -125,7 +125,6 @@ class Program:
                 bp.derive_args = {n: self._param_binding(bp, n, per_sample=True) for n in bp.cls.params}
         self.state = np.array(state, dtype=np.float64)
         self.live = np.array(live, dtype=np.float64)
-        self.coef = np.array(coef, dtype=np.float64)
         self.records = []      # (label, binding)
         self.channels = 0
         for bp in self.plans:
@@ -142,6 +141,7 @@ class Program:
             if bp.device is not None:
                 self.device_records.append((bp.device, len(self.records)))
                 self.records.append((f"{bp.name}.force -> {bp.device}", Sum(bp.inputs.get("force", ()))))
+        self.coef = np.array(self.numbers, dtype=np.float64)
 
     def _bind_device(self, bp):
         refs = [n for n, p in bp.cls.params.items() if p.refers == "devices"]
@@ -223,11 +223,28 @@ class Program:
         self.array_nodes.append(node)
         return node
 
+    def number(self, value, kind, prefix, attr):
+        """A number the kernel reads as data (coef[slot], loaded into the local `prefix_attr`
+        before the sample loop), so that changing it re-uses the compiled kernel."""
+        node = Coef(len(self.numbers), kind, self.names.local(("number", len(self.numbers)), prefix, attr))
+        self.numbers.append(float(value))
+        self.number_nodes.append(node)
+        return node
+
+    def _once(self, key, make):
+        if key not in self._numbered:
+            self._numbered[key] = make()
+        return self._numbered[key]
+
     def _static(self, value, bp, attr):
+        """A parameter that is not live: flags and choices are structure (literals in the source),
+        numbers and tables are data (a coef slot, an array), so editing them re-uses the kernel."""
         value = _freeze(value)
-        if isinstance(value, tuple) and len(value) > MAX_LITERAL_ITEMS:
+        if isinstance(value, tuple):
             return self._array(value, bp.ident, attr)
-        return Literal(value)
+        if isinstance(value, (bool, str)) or value is None:
+            return Literal(value)
+        return self.number(value, Coef.kind_of(value), bp.ident, attr)
 
     def _param_binding(self, bp, name, per_sample=False):
         param = bp.cls.params[name]
@@ -250,7 +267,7 @@ class Program:
             if arg == "t":
                 out.append(Counter())
             elif arg == "fs":
-                out.append(Literal(self.fs))
+                out.append(self._once("fs", lambda: self.number(self.fs, "float", "sample", "rate")))
             elif arg in ports_in:
                 out.append(Sum(bp.inputs.get(ports_in[arg], ())))
             elif arg in cls.params:
@@ -260,7 +277,10 @@ class Program:
             elif arg in buffers:
                 out.append(self.buffer_nodes[buffers[arg]])
             elif arg.endswith("_mask") and arg[:-5] in buffers:
-                out.append(Mask(len(self.buffers[buffers[arg[:-5]]]) - 1))
+                # a ring's capacity (a power of two) is structure: its mask as a literal keeps a
+                # register free in the sample loop (15 % on the waveguide benchmark); the delay
+                # length inside it is data
+                out.append(Literal(len(self.buffers[buffers[arg[:-5]]]) - 1))
             elif arg in bp.ext:
                 out.append(Column(bp.ext[arg]))
             elif which == "update" and arg in outs:
@@ -410,7 +430,8 @@ class NetPlan:
         names = ["pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr",
                  "jrow", "jcol", "jk"]
         self.slots = {}
-        prefix = prog.by_name[net.names[0]].ident
+        self.prefix = prefix = prog.by_name[net.names[0]].ident
+        self.points = {}          # flat cell index -> its number node
         self.scale = np.zeros((len(net.components), 3))
         for name in names + ["scale"]:
             self.slots[name] = len(prog.arrays)
@@ -459,14 +480,21 @@ class NetPlan:
         """The ArrayRef of the network's array `name` (pos, vel, frc, ..., scale)."""
         return self.prog.array_nodes[self.slots[name]]
 
+    def point(self, flat):
+        """The index of cell `flat` as data: a number the kernel loads (`str_p0`, `str_p1`, ...)."""
+        if flat not in self.points:
+            self.points[flat] = self.prog.number(flat, "index", self.prefix, f"p{len(self.points)}")
+        return self.points[flat]
+
     def element(self, end):
         comp = self.net.by_name[end.block]
         flat = comp.flat(end.index)
         node = self.prog.array_nodes[self.slots["pos" if end.port == "position" else "vel"]]
-        return ArrayItem(node.index, flat, node.local)
+        return ArrayItem(node.index, self.point(flat), node.local)
 
     def add_force(self, end, source):
         flat = self.net.by_name[end.block].flat(end.index)
+        self.point(flat)
         self.forces.setdefault(flat, []).append(source)
 
     def bind(self):
@@ -478,26 +506,33 @@ class NetPlan:
             if "tension" in bp.cls.params:
                 self.scales.append((comp.index, 1, self.prog._param_binding(bp, "tension")))
             self.scales.append((comp.index, 2, self.prog._param_binding(bp, "damping")))
+        self.step = self._step()
 
     def force_sums(self):
-        """(flat cell index, the sum of the forces wired into it) of every driven cell."""
-        return [(flat, Sum(tuple(sources))) for flat, sources in self.forces.items()]
+        """(index node of a driven cell, the sum of the forces wired into it)."""
+        return [(self.points[flat], Sum(tuple(sources))) for flat, sources in self.forces.items()]
 
-    def step_call(self):
-        """(function name, argument bindings) of the step."""
-        net = self.net
+    def _step(self):
+        """(function name, argument nodes) of the step; sizes and dt are numbers (data)."""
+        net, prog = self.net, self.prog
+        dt = prog.number(net.dt, "float", self.prefix, "dt")
         if net.stencil is not None:
             comp = net.components[0]
             fixed = comp.inst.values["boundary"] == "fixed"
             args = [self.array(k) for k in ("pos", "vel", "frc")]
             if net.stencil == "sheet":
-                args += [Literal(comp.shape[0]), Literal(comp.shape[1])]
+                args += [prog.number(comp.shape[0], "int", self.prefix, "rows"),
+                         prog.number(comp.shape[1], "int", self.prefix, "cols")]
             by_col = {col: b for _, col, b in self.scales}
-            args += [by_col[0], by_col[1], by_col[2], Literal(net.dt), Literal(fixed)]
+            args += [by_col[0], by_col[1], by_col[2], dt, Literal(fixed)]
             return f"{net.stencil}_step", args
         args = [self.array(k) for k in ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr",
                                         "col", "kr", "jrow", "jcol", "jk", "scale")]
-        return "network_step", args + [Literal(net.dt)]
+        return "network_step", args + [dt]
+
+    def step_call(self):
+        """(function name, argument bindings) of the step."""
+        return self.step
 
     def cell_views(self, name):
         """(positions, velocities) of component `name`'s cells: writable views of the network's arrays."""

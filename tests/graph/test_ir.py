@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from hapticgraph import render
 from hapticgraph.graph.ir import (ArrayItem, ArrayRef, BufferRef, Coef, Column, Counter, DerivedCoef, Frame,
-                                  Inverse, KernelSourceError, Literal, Live, Mask, Output, StateSlot, Sum)
+                                  Inverse, KernelSourceError, Literal, Live, Output, StateSlot, Sum)
 from hapticgraph.graph.modes import discrete_frequency
 from hapticgraph.graph.patch import load
 
@@ -43,7 +43,7 @@ LITERALS = st.one_of(FLOATS, st.integers(-1000, 1000), st.booleans(),
 
 
 def _leaf(draw, derived=True):
-    kinds = ["literal", "t", "live", "coef", "state", "item", "column", "output", "mask"] + (["dcoef"] if derived else [])
+    kinds = ["literal", "t", "live", "coef", "state", "item", "column", "output"] + (["dcoef"] if derived else [])
     kind = draw(st.sampled_from(kinds))
     k3 = st.integers(0, 2)
     if kind == "literal":
@@ -58,13 +58,11 @@ def _leaf(draw, derived=True):
     if kind == "state":
         return StateSlot(draw(k3))
     if kind == "item":
-        return ArrayItem(draw(k3), draw(st.integers(0, 4)))
+        return ArrayItem(draw(k3), Literal(draw(st.integers(0, 4))))
     if kind == "column":
         return Column(draw(st.integers(0, 3)))
     if kind == "output":
         return Output(draw(k3), draw(st.sampled_from(ATTRS)))
-    if kind == "mask":
-        return Mask(draw(st.sampled_from([3, 7, 1023])))
     return DerivedCoef(draw(k3), draw(st.sampled_from(["a1", "g"])))
 
 

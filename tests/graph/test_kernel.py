@@ -16,16 +16,21 @@ def test_kernel_is_readable_and_cached(patches_dir, tmp_path, monkeypatch):
     k1 = CompiledKernel(prog)
     assert os.path.dirname(os.path.dirname(k1.path)) == str(tmp_path / "cache")
     src = open(k1.path).read()
-    # one sample loop; every output then every update in schedule order; literals baked in
+    # one sample loop; every output then every update in schedule order; numbers are data: the
+    # taps an array argument, the delay's length a local loaded from coef
     assert src.count("for i in range(n):") == 1
     assert src.index("delay_output(") < src.index("lowpass_output(") < src.index("delay_update(")
-    assert "(0.25, 0.5, 0.25, )" in src and "t = t0 + i" in src
+    assert "0.25" not in src and "damp_coeffs" in src and "loop_n = int(coef[" in src and "t = t0 + i" in src
     assert "def kernel(n, t0, state, live, coef, rec, ext" in src and src == k1.source
     k2 = CompiledKernel(Program(load(patches_dir / "karplus_strong.yaml")))
     assert k2.path == k1.path
-    # another parameter value is another source, so another file
-    other = CompiledKernel(Program(load(patches_dir / "karplus_strong.yaml", overrides=["loop.length=50"])))
-    assert other.path != k1.path
+    # another length (the same ring capacity) is the same source; another wiring is another file
+    same = CompiledKernel(Program(load(patches_dir / "karplus_strong.yaml", overrides=["loop.length=120"])))
+    assert same.path == k1.path
+    other = CompiledKernel(Program(load(patches_dir / "karplus_strong.yaml", overrides=["damp.gain=0.5"])))
+    assert other.path == k1.path
+    third = CompiledKernel(Program(load(patches_dir / "cymatic_string.yaml")))
+    assert third.path != k1.path
 
 
 def test_source_hash_covers_block_functions(patches_dir):
@@ -175,8 +180,9 @@ def test_kernel_locals_are_named_after_the_patch(patches_dir):
     """Issue 12.6: the delay `loop` keeps its ring buffer in `loop_line` and its output in `loop_y`,
     the lowpass `damp` its live gain in `damp_gain`."""
     source, _ = generate(Program(load(patches_dir / "karplus_strong.yaml")))
-    assert "def kernel(n, t0, state, live, coef, rec, ext, loop_line, damp_hist):" in source
-    for name in ("loop_y = delay_output(loop_line,", "damp_gain = live[", "loop_y1 = state[", "pick_y + damp_y"):
+    assert "def kernel(n, t0, state, live, coef, rec, ext, loop_line, damp_hist, damp_coeffs):" in source
+    for name in ("loop_y = delay_output(loop_line,", "damp_gain = live[", "loop_y1 = state[", "pick_y + damp_y",
+                 "loop_n = int(coef["):
         assert name in source, name
 
 
