@@ -336,18 +336,18 @@ def setup(kind, folder):
     start = time.perf_counter()
     CompiledKernel(Program(patch, drivers={}))
     compile_seconds = time.perf_counter() - start
-    net0 = Program(patch, drivers={}).networks[0].net
+    net0 = Program(patch, drivers={}).groups[0].group
     pos0 = np.random.default_rng(20261121).uniform(-1e-3, 1e-3, net0.n)
 
     def fresh():
         prog = Program(patch, drivers={})
         ck = CompiledKernel(prog)                          # compiled already: fresh state only
-        plan = prog.networks[0]
-        plan.net.pos[:] = pos0
+        plan = prog.groups[0]
+        plan.group.pos[:] = pos0
         return prog, ck, plan
 
     prog, _, plan = fresh()
-    net = plan.net
+    net = plan.group
     comp = {c.name: c for c in net.components}
     exc_flat = next(iter(plan.forces))
     mic_flat = prog.records[0][1].terms[0].index           # the recorded cell: Sum of one ArrayItem
@@ -383,7 +383,7 @@ def time_hapticgraph(fresh, samples):
         b = min(samples, a + CHUNK)
         ck.run(a, rec[a:b], ext[a:b])
     elapsed = time.perf_counter() - start
-    return elapsed, {"out": rec[:, 0].copy(), "pos": plan.net.pos.copy(), "vel": plan.net.vel.copy()}
+    return elapsed, {"out": rec[:, 0].copy(), "pos": plan.group.pos.copy(), "vel": plan.group.vel.copy()}
 
 
 def throughput(kinds, samples, reps, exe):
@@ -503,8 +503,8 @@ NETWORK_ARRAYS = ("pos", "vel", "frc", "inv_m", "damp", "anchor", "cid", "rowptr
 def network_bytes(prog):
     """Bytes held per network: the kernel's arrays, the scale table and each lattice's index maps."""
     total = 0
-    for plan in prog.networks:
-        net = plan.net
+    for plan in prog.groups:
+        net = plan.group
         total += sum(getattr(net, k).nbytes for k in NETWORK_ARRAYS) + plan.scale.nbytes
         total += sum(c.compact.nbytes + c.alive.nbytes for c in net.components)
     return total
@@ -552,7 +552,7 @@ def memory_child(kind):
         current, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
         after = rss()
-        n = sum(p.net.n for p in prog.networks)
+        n = sum(p.group.n for p in prog.groups)
         print("RESULT " + json.dumps({"cells": n, "arrays": network_bytes(prog) / n, "retained": current / n,
                                       "peak": peak / n,
                                       "rss": (after - before) / n if before and after else None}))
@@ -567,13 +567,13 @@ def memory():
             path = pathlib.Path(tmp) / "m.yaml"
             path.write_text(memory_patch(kind, big=False), encoding="utf-8")
             prog = Program(load(str(path)), drivers={})
-            n = sum(p.net.n for p in prog.networks)
+            n = sum(p.group.n for p in prog.groups)
             proc = subprocess.run([sys.executable, str(pathlib.Path(__file__).resolve()), "--memory-child", kind],
                                   capture_output=True, text=True)
             big = next((json.loads(ln[7:]) for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")),
                        {"error": (proc.stderr.strip().splitlines() or ["?"])[-1]})
             rows.append({"kind": kind, "cells": n, "arrays": network_bytes(prog) / n,
-                         "path": prog.networks[0].net.stencil or "csr", "big": big})
+                         "path": prog.groups[0].group.stencil or "csr", "big": big})
     return rows
 
 

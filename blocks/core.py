@@ -27,9 +27,10 @@ class _Declaration:
 
 
 class _Port(_Declaration):
-    def __init__(self, name=None, doc=""):
+    def __init__(self, name=None, doc="", sends=False):
         self._name = name
         self.doc = doc
+        self.sends = sends     # an input whose value this block's device driver receives (a force)
 
     @property
     def name(self):
@@ -252,6 +253,11 @@ class Block:
         return ()
 
     @classmethod
+    def caption(cls, values):
+        """A few words drawn under the block's name in `hapticgraph graph` (e.g. a lattice's shape)."""
+        return ""
+
+    @classmethod
     def param_tuple(cls):
         return collections.namedtuple(f"{cls.__name__}Params", list(cls.params))
 
@@ -338,7 +344,7 @@ def _check_definition(cls):
         fn = cls.__dict__.get(fname)
         if fn is not None and not isinstance(fn, staticmethod):
             fail(f"{fname} must be a @staticmethod")
-    if cls.outputs and cls.output is None and not getattr(cls, "mass_spring", False):
+    if cls.outputs and cls.output is None and getattr(cls, "family", None) is None:
         fail("declares outputs but no output()")
     if cls.output is not None and not cls.outputs:
         fail("defines output() but declares no Out port")

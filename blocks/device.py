@@ -18,7 +18,9 @@ def clamp_force(force, limit):
 class Haptic(Block, name="haptic"):
     """x[n], v[n] from the device's sensor; force[n] goes to its actuator, clipped to ±max_force."""
 
-    force = In(doc="force the patch applies to the device [N]; read after the sensor, so no feedthrough")
+    drawing = {"dot": "hexagon", "mermaid": ("{{", "}}")}
+    force = In(doc="force the patch applies to the device [N]; read after the sensor, so no feedthrough",
+               sends=True)
     x = Out(doc="device position [m]")
     v = Out(doc="device velocity [m/s]")
     device = Param("", refers="devices", doc="the name of an entry under devices:")

@@ -25,6 +25,7 @@ class AudioOut(Block, name="audio_out"):
 
     channels = Param(2, minimum=1, maximum=64, doc="2: ports left, right; otherwise ch0 … chN−1")
     audio_sink = True
+    drawing = {"dot": "house"}
 
     @classmethod
     def ports(cls, values):

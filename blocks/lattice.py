@@ -13,6 +13,8 @@ A cell's `position` output is x[n], its `velocity` v[n−½]; its `force` input 
 import math
 
 from .core import Block, In, Out, Param, helper
+from .network import (BYTES_PER_CELL, CELL_PORTS, MAX_CELLS, STABILITY_BOUND, MassSpring,  # noqa: F401
+                      index_problem, stability_number)
 
 INDEX = {"type": "array", "items": {"type": "integer"}, "minItems": 1, "maxItems": 16}
 INDICES = {"type": "array", "items": INDEX}
@@ -23,17 +25,6 @@ OVERRIDES = {"type": "array", "items": {
                    "damping": {"type": "number", "minimum": 0, "description": "[N·s/m]"},
                    "locked": {"type": "boolean"}}}}
 SHAPE = {"type": "array", "items": {"type": "integer"}, "minItems": 1, "maxItems": 16}
-CELL_PORTS = {"force": "input", "position": "output", "velocity": "output"}
-MAX_CELLS = 20_000_000
-BYTES_PER_CELL = 160   # an upper estimate of the fused arrays per cell (see benchmarks)
-STABILITY_BOUND = 2.0
-
-
-def stability_number(dt, stiffness_sum, mass, damping):
-    """dt²·Σk/m + dt·γ/m: the half-step scheme needs it below STABILITY_BOUND."""
-    return dt * dt * stiffness_sum / mass + dt * damping / mass
-
-
 class Cell(Block, name="cell"):
     """m·(v[n+½] − v[n−½])/dt = F[n] + Σ springs − γ·v[n−½], x[n+1] = x[n] + dt·v[n+½].  Ref: Howard & Rimell 2003 (cells)."""
 
@@ -43,7 +34,8 @@ class Cell(Block, name="cell"):
     mass = Param(0.001, unit="kg", above=0.0, maximum=1e6)
     damping = Param(0.0, unit="N·s/m", minimum=0.0, maximum=1e6)
     locked = Param(False, doc="a locked cell never moves")
-    mass_spring = True
+    family = MassSpring
+    drawing = {"dot": "circle", "mermaid": ("((", "))")}
 
 
 class Lattice(Block, name="lattice"):
@@ -58,7 +50,12 @@ class Lattice(Block, name="lattice"):
     lock = Param([], schema={**INDICES, "description": "indices of cells that never move"})
     cut = Param([], schema={**INDICES, "description": "indices of cells removed from the lattice"})
     cells = Param([], schema={**OVERRIDES, "description": "per-cell mass, damping, locked"})
-    mass_spring = True
+    family = MassSpring
+    drawing = {"dot": "box3d", "mermaid": ("[[", "]]")}
+
+    @classmethod
+    def caption(cls, values):
+        return "×".join(str(s) for s in values["shape"])
 
     @classmethod
     def check(cls, p, fs):
@@ -80,32 +77,26 @@ class Lattice(Block, name="lattice"):
 
     @classmethod
     def check_cell(cls, values, index, port, role):
-        """A problem with `name[index].port` used as an `role` ("input" or "output"), or None."""
+        """A problem with `name[index].port` used as an `role` ("input" or "output"; "probe": only
+        read, so any port of a cell that is not cut), or None."""
         shape = list(values["shape"])
         message = index_problem(shape, list(index))
         if message:
             return message
         if port not in CELL_PORTS:
             return f"a cell has no port {port!r}; its ports: force (input), position, velocity (outputs)"
-        if CELL_PORTS[port] != role:
+        if role != "probe" and CELL_PORTS[port] != role:
             return f"{port!r} is an {CELL_PORTS[port]}, it cannot be the {'source' if role == 'output' else 'destination'}"
         index = list(index)
         if index in [list(i) for i in values["cut"]]:
             return "this cell is cut out of the lattice; it has no ports"
+        if role == "probe":
+            return None
         locked = index in [list(i) for i in values["lock"]] or any(
             list(c["index"]) == index and c.get("locked") for c in values["cells"])
         if locked:
             return "this cell is locked (it never moves), so it cannot be wired"
         return None
-
-
-def index_problem(shape, index):
-    if len(index) != len(shape):
-        return f"index {list(index)} has {len(index)} coordinate(s); the lattice has shape {shape}"
-    for i, (k, n) in enumerate(zip(index, shape)):
-        if not 0 <= k < n:
-            return f"index {list(index)} is out of range for shape {shape} (axis {i}: 0 … {n - 1})"
-    return None
 
 
 class Spring(Block, name="spring"):
@@ -114,7 +105,8 @@ class Spring(Block, name="spring"):
     a = Param("", doc="a cell: a cell block's name or lattice[i, j]")
     b = Param("", doc="the other cell")
     tension = Param(100.0, unit="N/m", minimum=0.0, maximum=1e9, live=False)
-    mass_spring = True
+    family = MassSpring
+    drawing = {"dot": "diamond", "mermaid": ("{", "}")}
 
 
 @helper

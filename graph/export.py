@@ -1,5 +1,6 @@
 """The patch graph for people: Graphviz dot and Mermaid, one node per block, one edge per
-connection (labelled with its ports), springs drawn as edges between the cells they join."""
+connection (labelled with its ports), links of a fused family (springs) drawn as edges between the points they join;
+a block type may declare its `drawing` (a dot shape, mermaid brackets) and `caption`."""
 import re
 
 
@@ -15,19 +16,21 @@ def _edges(patch):
         dst = f"{c.dst.port}" if c.dst.index is None else f"[{', '.join(map(str, c.dst.index))}].{c.dst.port}"
         out.append((c.src.block, c.dst.block, f"{src} → {dst}", "signal"))
     for inst in patch.blocks.values():
-        if inst.cls.type_name == "spring":
-            a, b = inst.values["a"], inst.values["b"]
-            out.append((a.split("[")[0].strip(), inst.name, a.strip(), "spring"))
-            out.append((inst.name, b.split("[")[0].strip(), b.strip(), "spring"))
+        family = getattr(inst.cls, "family", None)
+        ends = family.link_ends(inst) if family is not None else []
+        if len(ends) == 2:          # a link: drawn as an edge between the points it joins
+            (a, a_text), (b, b_text) = ends
+            out.append((a, inst.name, a_text, "link"))
+            out.append((inst.name, b, b_text, "link"))
     return out
 
 
 def _label(inst):
-    extra = ""
-    if inst.cls.type_name == "lattice":
-        extra = " " + "×".join(str(s) for s in inst.values["shape"])
-    elif inst.cls.params.get("device") is not None and inst.values.get("device"):
-        extra = f" ({inst.values['device']})"
+    extra = inst.cls.caption(inst.values)
+    devices = [inst.values[n] for n, p in inst.cls.params.items() if p.refers == "devices" and inst.values.get(n)]
+    if not extra and devices:
+        extra = f"({devices[0]})"
+    extra = f" {extra}" if extra else ""
     return f"{inst.name}\\n{inst.cls.type_name}{extra}"
 
 
@@ -37,12 +40,11 @@ def to_dot(patch):
              '  edge [fontname="Helvetica", fontsize=8];']
     for name in patch.order:
         inst = patch.blocks[name]
-        shape = {"lattice": "box3d", "cell": "circle", "spring": "diamond", "haptic": "hexagon",
-                 "audio_out": "house"}.get(inst.cls.type_name)
+        shape = getattr(inst.cls, "drawing", {}).get("dot")
         attrs = f'label="{_label(inst)}"' + (f", shape={shape}" if shape else "")
         lines.append(f"  {_id(name)} [{attrs}];")
     for src, dst, label, style in _edges(patch):
-        attrs = f'label="{label}"' + (", style=dashed, arrowhead=none" if style == "spring" else "")
+        attrs = f'label="{label}"' + (", style=dashed, arrowhead=none" if style == "link" else "")
         lines.append(f"  {_id(src)} -> {_id(dst)} [{attrs}];")
     lines.append("}")
     return "\n".join(lines) + "\n"
@@ -53,10 +55,9 @@ def to_mermaid(patch):
     for name in patch.order:
         inst = patch.blocks[name]
         text = _label(inst).replace("\\n", "<br/>")
-        left, right = {"lattice": ("[[", "]]"), "cell": ("((", "))"), "spring": ("{", "}"),
-                       "haptic": ("{{", "}}")}.get(inst.cls.type_name, ("[", "]"))
+        left, right = getattr(inst.cls, "drawing", {}).get("mermaid", ("[", "]"))
         lines.append(f'  {_id(name)}{left}"{text}"{right}')
     for src, dst, label, style in _edges(patch):
-        arrow = "-.-" if style == "spring" else "-->"
+        arrow = "-.-" if style == "link" else "-->"
         lines.append(f'  {_id(src)} {arrow}|"{label}"| {_id(dst)}')
     return "\n".join(lines) + "\n"

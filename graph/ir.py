@@ -122,6 +122,7 @@ class Frame:
     arrays: Any
     t: int = 0
     ext_row: Any = None
+    rec_row: Any = None
     outs: dict = field(default_factory=dict)       # (block index, attr) -> value
     derived: dict = field(default_factory=dict)    # block index -> {coefficient: value}
 

@@ -32,7 +32,7 @@ import types
 
 from ..blocks.core import register_helpers
 from .errors import PatchError, Problem
-from .ir import KernelSourceError, ident, lit
+from .ir import KernelSourceError, ident
 from .program import PlanError, Program
 
 # Set by the command line (unless --quiet) to a callable taking one line of text: told when a
@@ -110,23 +110,23 @@ class Emitter:
 def generate(prog: Program):
     """The kernel module's source for a program, and the Python functions it calls.
 
-    Nothing from the patch reaches the source as text: blocks are numbered, comments carry names
-    reduced to [A-Za-z0-9_], and module, class, function and parameter names (which come from
-    Python, not from the patch) are matched whole as identifiers.
+    Nothing from the patch reaches the source as text: numbers are data (the coef array), names
+    are sanitized identifiers, comments carry names reduced to [A-Za-z0-9_], and module, class,
+    function and parameter names (which come from Python, not from the patch) are matched whole
+    as identifiers. The sample loop is the program's schedule items, in order (graph/items.py).
     """
     body = Emitter()
-    buf_args = [node.emit() for node in prog.buffer_nodes]
-    arr_args = [node.emit() for node in prog.array_nodes]
+    args = [node.emit() for node in prog.buffer_nodes + prog.array_nodes]
     body("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
-    body(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in buf_args + arr_args)}):")
+    body(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in args)}):")
     body.indent()
-    _emit_loads(body, prog)
+    for node in _loaded_nodes(prog):
+        body(f"{node.emit()} = {node.load()}")
     body("for i in range(n):")
     body.indent()
     body("t = t0 + i")
-    _emit_sample(body, prog)
-    for net in prog.networks:
-        _emit_network(body, net)
+    for item in prog.items:
+        item.emit(body)
     body.dedent()
     for bp in prog.plans:
         for node in bp.state_nodes:
@@ -141,8 +141,17 @@ def generate(prog: Program):
     return e.source() + body.source(), fns
 
 
+def _loaded_nodes(prog):
+    """Scalar state, live parameters, coefficients and numbers: loaded into locals before the
+    sample loop (numba keeps them in registers inside it)."""
+    nodes = [node for bp in prog.plans for node in bp.state_nodes]
+    for bp in prog.plans:
+        nodes += list(bp.live_nodes.values()) + list(bp.coef_nodes.values())
+    return nodes + prog.number_nodes
+
+
 def _emit_imports(e, prog, uses_math):
-    """The modules and block functions the kernel uses (and only those); the functions called."""
+    """The modules and functions the kernel uses (and only those); the functions called."""
     per_sample = [bp for bp in prog.plans if bp.coef_mode == "per_sample"]
     if per_sample:
         e("import collections")
@@ -150,11 +159,25 @@ def _emit_imports(e, prog, uses_math):
         e("import math")
     e("from hapticgraph.graph.kernel import jit")
     e()
+    called = {fn for item in prog.items for fn in item.functions()}
+    fns = _emit_block_imports(e, prog, called)
+    for fn in sorted((fn for fn in called if fn not in fns), key=lambda f: (f.__module__, f.__name__)):
+        module, name = dotted(fn.__module__, "module of a step function"), ident(fn.__name__, "step function")
+        e(f"from {module} import {name}")     # a @helper: numba compiles it where the kernel calls it
+        fns.append(fn)
+    for bp in per_sample:
+        fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
+        params = ident(prog.derived(bp)[1], "parameter tuple")
+        e(f"{params} = collections.namedtuple('{params}', [{fields}])")
+    return fns
+
+
+def _emit_block_imports(e, prog, called):
+    """Each block type whose functions the kernel calls, and `TYPE_output = jit(...)` for each."""
     classes, fns = set(), []
     for bp in prog.plans:
         cls = bp.cls
-        which = [w for w in ("derive", "output", "update")
-                 if getattr(cls, w) is not None and (w != "derive" or _needs_derive(prog, cls))]
+        which = [w for w in ("derive", "output", "update") if getattr(cls, w) is not None and getattr(cls, w) in called]
         if cls in classes or not which:
             continue
         classes.add(cls)
@@ -173,76 +196,7 @@ def _emit_imports(e, prog, uses_math):
         for w in which:
             e(f"{tname}_{w} = jit({alias}.{w})")
             fns.append(getattr(cls, w))
-    if prog.networks:
-        from ..blocks import lattice
-        steps = sorted({ident(net.step_call()[0], "network step") for net in prog.networks})
-        e(f"from hapticgraph.blocks.lattice import {', '.join(steps)}")
-        fns += [getattr(lattice, name) for name in steps]
-    for bp in per_sample:
-        fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
-        params = ident(prog.derived(bp)[1], "parameter tuple")
-        e(f"{params} = collections.namedtuple('{params}', [{fields}])")
     return fns
-
-
-def _args(nodes):
-    return ", ".join(node.emit() for node in nodes)
-
-
-def _emit_loads(e, prog):
-    """Scalar state, live parameters and control-rate coefficients into locals (numba keeps
-    them in registers inside the loop)."""
-    for bp in prog.plans:
-        for node in bp.state_nodes:
-            e(f"{node.emit()} = {node.load()}")
-    for bp in prog.plans:
-        for node in list(bp.live_nodes.values()) + list(bp.coef_nodes.values()):
-            e(f"{node.emit()} = {node.load()}")
-    for node in prog.number_nodes:
-        e(f"{node.emit()} = {node.load()}")
-
-
-def _emit_sample(e, prog):
-    """One sample: every output in schedule order, the recordings, then every update."""
-    for bp in prog.plans:
-        if bp.cls.output is None and bp.coef_mode != "per_sample":
-            continue
-        tname = ident(bp.cls.type_name, "block type name")
-        e(f"# {note(bp.name, 30)} ({tname})")
-        if bp.coef_mode == "per_sample":
-            coefs, params = (ident(name, "derived coefficients") for name in prog.derived(bp))
-            e(f"{coefs} = {tname}_derive({params}({_args(bp.derive_args.values())}), {lit(prog.fs)})")
-        if bp.cls.output is None:
-            continue
-        outs = [prog.output(bp, o.attr).emit() for o in bp.cls.outputs]
-        e(f"{', '.join(outs)} = {tname}_output({_args(bp.output_args)})")
-    for k, (label, binding) in enumerate(prog.records):
-        e(f"rec[i, {k}] = {binding.emit()}  # {note(label)}")
-    for bp in prog.plans:
-        if bp.cls.update is None:
-            continue
-        call = f"{ident(bp.cls.type_name, 'block type name')}_update({_args(bp.update_args)})"
-        if bp.states:
-            e(f"{_args(bp.state_nodes)} = {call}")
-        else:
-            e(call)
-
-
-def _emit_network(e, net):
-    """A fused mass-spring network's step: wired forces in, live scales, then the update."""
-    e(f"# mass-spring network: {note(', '.join(net.net.names))}")
-    frc, scale = net.array("frc").emit(), net.array("scale").emit()
-    for point, force in net.force_sums():
-        e(f"{frc}[{point.emit()}] += {force.emit()}")
-    if net.net.stencil is None:
-        for comp, col, b in net.scales:
-            e(f"{scale}[{int(comp)}, {int(col)}] = {b.emit()}")
-    name, args = net.step_call()
-    e(f"{ident(name, 'network step')}({_args(args)})")
-
-
-def _needs_derive(prog, cls):
-    return any(bp.cls is cls and bp.coef_mode == "per_sample" for bp in prog.plans)
 
 
 # -- the cache key: everything the machine code depends on --------------------------------------

@@ -39,7 +39,7 @@ import math
 
 import numpy as np
 
-from .network import Network, group
+from .family import groups
 
 DENSE_MAX = 800           # movable cells up to which the dense solver is used
 RIGID_TOL = 1e-12         # ω_c² below this fraction of the largest diagonal of M^-½KM^-½: a rigid mode (roundoff: ~1e-16)
@@ -109,37 +109,30 @@ def eigen_omegas(net, count):
     return np.sqrt(np.maximum(lam, 0.0)), method
 
 
-def _notes(net, patch, connections):
-    notes = []
-    for comp in net.components:
-        driven = sorted({c.dst.port for c in connections
-                         if c.dst.block == comp.name and c.dst.port in ("mass", "tension", "damping")})
-        for port in driven:
-            unit = {"mass": "kg", "tension": "N/m", "damping": "N·s/m"}[port]
-            notes.append(f"{comp.name}.{port} is driven by a connection; its patch value "
-                         f"{comp.inst.values[port]:g} {unit} is used")
-    if np.any(net.dampings() > 0):
-        notes.append("damping ignored (lossless modes)")
-    return notes
+def _linear_groups(patch, editable=False):
+    """(members, group) of every fused group with a linear model (masses, stiffness_matrix)."""
+    for family, members in groups(patch.blocks):
+        group = family.build(members, patch.rate, editable)
+        if group is not None and hasattr(group, "stiffness_matrix"):
+            yield members, group
 
 
 def network_modes(patch, count=20):
     """[NetworkModes] of every mass-spring network of a loaded patch, in patch order."""
     out = []
     connections = getattr(patch, "connections", ())
-    for members, springs in group(patch.blocks):
-        net = Network(members, springs, patch.rate)
+    for _, net in _linear_groups(patch):
         omegas, method = eigen_omegas(net, count)
         mass = net.masses()
         locked = int(np.sum(~np.isfinite(mass)))
         freqs = discrete_frequency(omegas, patch.rate)
         rigid = int(np.sum(omegas == 0.0))
-        notes = _notes(net, patch, connections)
+        notes = net.notes(connections)
         if rigid:
             notes.append(f"{rigid} rigid-body mode(s) at 0 Hz (nothing anchors the network)")
         if np.any(np.isnan(freqs)):
             notes.append("modes marked nan exceed the half-step stability limit ω·dt < 2")
-        out.append(NetworkModes(" + ".join(net.names), [m.name for m in members], [s.name for s in springs],
+        out.append(NetworkModes(" + ".join(net.names), net.bodies(), net.links(),
                                 net.n - locked, locked, [float(w / (2 * math.pi)) for w in omegas],
                                 [float(f) for f in freqs], rigid, notes, method))
     return out
@@ -162,11 +155,9 @@ def mode_shape(patch, lattice, mode=1):
     locked ones), normalised to a peak of 1."""
     import scipy.linalg as la
     import scipy.sparse as sp
-    from .network import Network, group
-    for members, springs in group(patch.blocks):
-        if lattice not in [m.name for m in members]:
+    for members, net in _linear_groups(patch, editable=True):
+        if lattice not in net.bodies():
             continue
-        net = Network(members, springs, patch.rate, stencils=False)
         mass = net.masses()
         idx = np.nonzero(np.isfinite(mass))[0]
         if mode < 1:
@@ -184,12 +175,6 @@ def mode_shape(patch, lattice, mode=1):
         peak = np.max(np.abs(x))
         if peak > 0:
             x /= x[np.argmax(np.abs(x))]
-        comp = net.by_name[lattice]
         freq = float(discrete_frequency(np.sqrt(max(lam[0], 0.0)), patch.rate))
-        if not comp.shape:
-            return freq, np.array([x[comp.offset]])
-        full = np.full(len(comp.compact), np.nan)
-        alive = comp.compact >= 0
-        full[alive] = x[comp.offset + comp.compact[alive]]
-        return freq, full.reshape(comp.shape)
+        return freq, net.shape_of(lattice, x)
     raise ValueError(f"no lattice or cell block named {lattice!r}")

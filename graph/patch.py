@@ -10,7 +10,7 @@ import re
 import jsonschema
 
 from .errors import Collector, PatchError
-from .network import check_cells, check_springs, check_stability, kernel_items
+from .family import check_families, kernel_cost
 from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
 from .schema import INDEX, patch_schema
@@ -146,12 +146,8 @@ def load(path, overrides=(), registry=None, drivers=None):
     _stop_if_full(problems)
     connections = _connections(doc, blocks, problems)
     _stop_if_full(problems)
-    before = len(problems.problems)
     declared = set(doc["blocks"]) if isinstance(doc.get("blocks"), LDict) else set()
-    check_springs(blocks, problems, declared)
-    check_cells(blocks, problems)     # before anything sized by the cells is built
-    if len(problems.problems) == before:
-        check_stability(blocks, rate, problems)
+    check_families(blocks, problems, declared, rate)
     audio = [b for b in blocks.values() if getattr(b.cls, "audio_sink", False)]
     for extra in audio[1:]:
         problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
@@ -159,7 +155,7 @@ def load(path, overrides=(), registry=None, drivers=None):
     devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
     _check_devices(devices, blocks, problems)
     _stop_if_full(problems)
-    items = kernel_items(blocks)
+    items = kernel_cost(blocks)
     if items > MAX_BLOCKS:
         problems.add(doc.lines.get("blocks", 1),
                      f"the patch has {items:,} blocks to compile (a mass-spring network counts as one); "
@@ -480,21 +476,22 @@ def _connections(doc, blocks, problems):
 
 def _check_endpoint(inst, end, role, text, line, problems):
     cls = inst.cls
+    family = getattr(cls, "family", None)
     if end.index is not None:
-        check_cell = getattr(cls, "check_cell", None)
-        if check_cell is None:
+        where = f"{inst.name}[{', '.join(map(str, end.index))}]"
+        if family is None or getattr(cls, "check_cell", None) is None:
             problems.add(line, f"connection {text!r}: block {inst.name!r} ({cls.type_name}) has no cells "
                                f"to index with [{', '.join(map(str, end.index))}]")
             return False
-        message = check_cell(inst.values, end.index, end.port, role)
+        message = family.point_problem(inst, end.index, end.port, role)
         if message:
-            problems.add(line, f"connection {text!r}: {inst.name}[{', '.join(map(str, end.index))}]: {message}")
+            problems.add(line, f"connection {text!r}: {where}: {message}")
             return False
         return True
     found = inst.output(end.port) if role == "output" else inst.input(end.port)
     if found is not None:
         return True
-    if getattr(cls, "check_cell", None) is not None and end.port in ("position", "velocity", "force"):
+    if family is not None and end.port in family.point_ports:
         problems.add(line, f"connection {text!r}: {inst.name!r} is a {cls.type_name}; address one of its cells "
                            f"as {inst.name}[i, ...].{end.port}")
         return False

@@ -11,7 +11,7 @@ import re
 import sys
 import threading
 
-from .graph.network import parse_ref
+from .blocks.network import parse_ref
 from .graph.program import PlanError
 
 HELP = "commands: set BLOCK.PARAM VALUE | lock NAME[i, j] | unlock NAME[i, j] | cut NAME[i, j] | help"
@@ -28,42 +28,24 @@ def parse(line, prog):
         if not m:
             raise ValueError("set BLOCK.PARAM VALUE")
         block, name, raw = m.groups()
-        bp = prog.by_name.get(block)
-        if bp is None:
-            raise ValueError(f"no block named {block!r}")
-        param = bp.cls.params.get(name)
-        if param is None or not param.live:
-            raise ValueError(f"{block}.{name} is not a live parameter")
-        if name in bp.live_sources:
-            raise ValueError(f"{block}.{name} is driven by a connection")
         try:
             value = float(raw)
         except ValueError:
             raise ValueError(f"{raw!r} is not a number") from None
-        for bound, ok in ((param.minimum, lambda v, b: v >= b), (param.maximum, lambda v, b: v <= b),
-                          (param.above, lambda v, b: v > b), (param.below, lambda v, b: v < b)):
-            if bound is not None and not ok(value, bound):
-                raise ValueError(f"{value:g} is outside the range of {block}.{name}")
+        try:
+            prog.check_set(block, name, value)
+        except PlanError as exc:
+            raise ValueError(str(exc)) from None
         return prog.set_param, (block, name, value), f"{block}.{name} = {value:g}"
     if verb in ("lock", "unlock", "cut"):
         ref = parse_ref(rest)
         if ref is None:
             raise ValueError(f"{verb} NAME[i, j]")
         name, index = ref
-        net = prog.network_of.get(name)
-        if net is None:
-            raise ValueError(f"{name!r} is not a lattice or cell block")
-        if net.net.stencil is not None:
-            raise ValueError("this patch plays on a stencil; cells can only be edited with --console from the start")
-        comp = net.net.by_name[name]
-        if comp.shape:
-            from .blocks.lattice import index_problem
-            problem = index_problem(list(comp.shape), list(index or ()))
-            if problem:
-                raise ValueError(problem)
-        flat = comp.flat(index)
-        if flat is None or net.cut_cells.get(flat):
-            raise ValueError(f"{rest.strip()} is cut")
+        try:
+            prog.check_edit(name, index, verb)
+        except PlanError as exc:
+            raise ValueError(str(exc)) from None
         return prog.edit_cell, (name, index, verb), f"{verb} {rest.strip()}"
     if verb == "help":
         raise ValueError(HELP)

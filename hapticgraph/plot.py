@@ -41,7 +41,7 @@ def quantity_of(patch, probe):
         return "", ""
     doc = unit = ""
     ports = list(inst.outputs) + list(inst.inputs)
-    if getattr(inst.cls, "mass_spring", False):        # a lattice's cells have the cell block's ports
+    if getattr(inst.cls, "family", None) is not None and getattr(inst.cls, "check_cell", None):   # a lattice's cells
         from .blocks.lattice import Cell
         ports += list(Cell.outputs) + list(Cell.inputs)
     for p in ports:

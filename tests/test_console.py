@@ -17,7 +17,7 @@ def test_commands_apply_at_the_next_block(string_session):
     assert s.prog.live[s.prog.by_name["mic"].live["gain"]] == 1.0    # nothing applied yet
     s.process(256)
     assert console.applied == ["mic.gain = 0", "lock str[20]", "cut str[30]"]
-    net = s.prog.networks[0].net
+    net = s.prog.groups[0].group
     assert net.inv_m[20] == 0.0 and net.inv_m[30] == 0.0
     assert np.all(s.process(256)[:, 0] == 0.0)
 

@@ -35,7 +35,7 @@ def test_cut_cell_removes_its_springs(string_session):
     s.process(4096)
     s.edit(s.prog.edit_cell, "str", (30,), "cut")
     s.process(1)
-    net = s.prog.networks[0].net
+    net = s.prog.groups[0].group
     assert net.inv_m[30] == 0.0 and net.pos[30] == 0.0
     assert not np.any(net.kr[net.col == 30]) and not np.any(net.kr[net.rowptr[30]:net.rowptr[31]])
     with pytest.raises(PlanError, match="is cut"):

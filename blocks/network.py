@@ -10,15 +10,36 @@ import re
 
 import numpy as np
 
-from ..blocks.lattice import BYTES_PER_CELL, MAX_CELLS, STABILITY_BOUND, index_problem, stability_number
+from .family import Array, Control, Family, Flag, Group, Number, touching
 
 _REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
 IDX = np.uint32
 EXACT_CELLS = 250_000   # networks up to this many cells are checked cell by cell, larger by a bound
+CELL_PORTS = {"force": "input", "position": "output", "velocity": "output"}
+MAX_CELLS = 20_000_000
+BYTES_PER_CELL = 160   # an upper estimate of the fused arrays per cell (see benchmarks)
+STABILITY_BOUND = 2.0
+
+
+def stability_number(dt, stiffness_sum, mass, damping):
+    """dt²·Σk/m + dt·γ/m: the half-step scheme needs it below STABILITY_BOUND."""
+    return dt * dt * stiffness_sum / mass + dt * damping / mass
+
+
+
+def index_problem(shape, index):
+    if len(index) != len(shape):
+        return f"index {list(index)} has {len(index)} coordinate(s); the lattice has shape {shape}"
+    for i, (k, n) in enumerate(zip(index, shape)):
+        if not 0 <= k < n:
+            return f"index {list(index)} is out of range for shape {shape} (axis {i}: 0 … {n - 1})"
+    return None
+
+
 
 
 def is_mass_spring(inst):
-    return getattr(inst.cls, "mass_spring", False)
+    return getattr(inst.cls, "family", None) is MassSpring
 
 
 def parse_ref(text):
@@ -71,8 +92,8 @@ class Component:
         return f"{self.name}[{', '.join(str(int(i)) for i in np.unravel_index(local, self.shape))}]"
 
 
-class Network:
-    """The fused arrays of one group of touching mass-spring blocks."""
+class Network(Group):
+    """The fused arrays of one group of touching mass-spring blocks (a family Group)."""
 
     def __init__(self, members, springs, rate, stencils=True):
         self.stencils = stencils    # False: always the CSR path (cells can be locked/cut live)
@@ -146,6 +167,9 @@ class Network:
                                              np.array(jk, dtype=np.float64))
         # the stencil fast path: one uniform lattice of 1 or 2 dimensions, nothing irregular
         only = self.components[0] if len(self.components) == 1 else None
+        self.scale = np.zeros((len(self.components), 3))   # per component: 1/mass, tension, damping
+        self.inv_m0 = self.inv_m.copy()
+        self.cut_cells = {}
         self.stencil = None
         if self.stencils and only is not None and only.shape and len(only.shape) <= 2 and not self.springs:
             v = only.inst.values
@@ -155,6 +179,126 @@ class Network:
     def cell_of(self, ref):
         name, index = parse_ref(ref)
         return self.by_name[name].flat(index)
+
+    # -- the linear model `hapticgraph modes` reads -----------------------------------------
+    def bodies(self):
+        return [c.name for c in self.components]
+
+    def links(self):
+        return [s.name for s in self.springs]
+
+    def notes(self, connections):
+        """What the lossless linear modes leave out for this network."""
+        notes = []
+        for comp in self.components:
+            driven = sorted({c.dst.port for c in connections
+                             if c.dst.block == comp.name and c.dst.port in ("mass", "tension", "damping")})
+            for port in driven:
+                unit = {"mass": "kg", "tension": "N/m", "damping": "N·s/m"}[port]
+                notes.append(f"{comp.name}.{port} is driven by a connection; its patch value "
+                             f"{comp.inst.values[port]:g} {unit} is used")
+        if np.any(self.dampings() > 0):
+            notes.append("damping ignored (lossless modes)")
+        return notes
+
+    def shape_of(self, block, x):
+        """A network-wide vector `x` seen on block's cells: an array of its shape (NaN where cut)."""
+        comp = self.by_name[block]
+        if not comp.shape:
+            return np.array([x[comp.offset]])
+        full = np.full(len(comp.compact), np.nan)
+        alive = comp.compact >= 0
+        full[alive] = x[comp.offset + comp.compact[alive]]
+        return full.reshape(comp.shape)
+
+    # -- the family Group protocol ------------------------------------------------------------
+    @property
+    def arrays(self):
+        if self.stencil is not None:
+            return {"x": self.pos, "v": self.vel, "f": self.frc}
+        return {"x": self.pos, "v": self.vel, "f": self.frc, "inv_m": self.inv_m, "damp": self.damp,
+                "anchor": self.anchor, "cid": self.cid, "rowptr": self.rowptr, "col": self.col, "kr": self.kr,
+                "jrow": self.jrow, "jcol": self.jcol, "jk": self.jk, "scale": self.scale}
+
+    def point(self, block, index):
+        comp = self.by_name.get(block)
+        if comp is None or (index is None) != (not comp.shape):
+            return None
+        if comp.shape and index_problem(list(comp.shape), list(index)):
+            return None
+        flat = comp.flat(index)
+        return None if flat is None or self.cut_cells.get(flat) else flat
+
+    def point_array(self, port):
+        return {"position": "x", "velocity": "v", "force": "f"}[port]
+
+    def controls(self):
+        """The live mass (as its inverse), tension and damping of each component, per sample."""
+        if self.stencil is not None:
+            return []
+        out = []
+        for comp in self.components:
+            out.append(("scale", (comp.index, 0), Control(comp.name, "mass", inverse=True)))
+            if "tension" in comp.inst.cls.params:
+                out.append(("scale", (comp.index, 1), Control(comp.name, "tension")))
+            out.append(("scale", (comp.index, 2), Control(comp.name, "damping")))
+        return out
+
+    def step(self):
+        from . import lattice
+        dt = Number(self.dt, "float", "dt")
+        if self.stencil is None:
+            keys = ("x", "v", "f", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr", "jrow", "jcol", "jk",
+                    "scale")
+            return lattice.network_step, [Array(k) for k in keys] + [dt]
+        comp = self.components[0]
+        args = [Array("x"), Array("v"), Array("f")]
+        if self.stencil == "sheet":
+            args += [Number(comp.shape[0], "int", "rows"), Number(comp.shape[1], "int", "cols")]
+        args += [Control(comp.name, "mass", inverse=True), Control(comp.name, "tension"),
+                 Control(comp.name, "damping"), dt, Flag(comp.inst.values["boundary"] == "fixed")]
+        return getattr(lattice, f"{self.stencil}_step"), args
+
+    def views(self, block):
+        comp = self.by_name[block]
+        cells = slice(comp.offset, comp.offset + comp.count)
+        return self.pos[cells], self.vel[cells]
+
+    def edit(self, block, index, action, apply=True):
+        """Lock, unlock or cut a cell between kernel calls (the CSR path only); `apply=False`
+        only checks."""
+        if self.stencil is not None:
+            raise ValueError(f"network {', '.join(self.names)} runs on a stencil; cells can only be edited in a "
+                             "session started editable (play --console)")
+        if action not in ("lock", "unlock", "cut"):
+            raise ValueError(f"unknown cell edit {action!r} (lock, unlock, cut)")
+        comp = self.by_name[block]
+        if comp.shape:
+            msg = index_problem(list(comp.shape), list(index or ()))
+            if msg:
+                raise ValueError(f"{block}: {msg}")
+        flat = comp.flat(index)
+        if flat is None or self.cut_cells.get(flat):
+            raise ValueError(f"{block}{list(index or [])} is cut")
+        if not apply:
+            return flat
+        if action == "lock":
+            self.inv_m[flat] = 0.0
+            self.vel[flat] = 0.0
+        elif action == "unlock":
+            self.inv_m[flat] = self.inv_m0[flat]
+        elif action == "cut":
+            # the cell leaves the network: no mass, no springs to it or from it, at rest at 0
+            self.inv_m[flat] = 0.0
+            self.pos[flat] = self.vel[flat] = 0.0
+            self.anchor[flat] = 0.0
+            for rowptr, col, k in ((self.rowptr, self.col, self.kr), (self.jrow, self.jcol, self.jk)):
+                k[rowptr[flat]:rowptr[flat + 1]] = 0.0
+                k[col == flat] = 0.0
+            self.cut_cells[flat] = True
+        else:
+            raise ValueError(f"unknown cell edit {action!r} (lock, unlock, cut)")
+        return flat
 
     def stiffness_parts(self):
         """Per cell: (Σk of its lattice's springs and anchors, Σk of the joins on it)."""
@@ -228,30 +372,17 @@ def _csr(n, rows, cols, vals):
     return rowptr.astype(idx), cols[order].astype(idx), np.ascontiguousarray(vals[order], dtype=np.float64)
 
 
+def _joins(inst):
+    if inst.cls.type_name != "spring":
+        return ()
+    refs = (parse_ref(inst.values[key]) for key in ("a", "b"))
+    return [ref[0] for ref in refs if ref]
+
+
 def group(blocks):
     """Mass-spring blocks grouped by touch: [(members, springs)] in patch order."""
-    parent = {}
-
-    def find(x):
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
-    ms = [b for b in blocks.values() if is_mass_spring(b)]
-    for b in ms:
-        parent[b.name] = b.name
-    for b in ms:
-        if b.cls.type_name == "spring":
-            for key in ("a", "b"):
-                ref = parse_ref(b.values[key])
-                if ref and ref[0] in parent:
-                    parent[find(ref[0])] = find(b.name)
-    groups = {}
-    for b in sorted(ms, key=lambda b: b.index):
-        groups.setdefault(find(b.name), []).append(b)
     out = []
-    for members in groups.values():
+    for members in touching([b for b in blocks.values() if is_mass_spring(b)], _joins):
         bodies = [b for b in members if b.cls.type_name != "spring"]
         springs = [b for b in members if b.cls.type_name == "spring"]
         if bodies:
@@ -322,11 +453,6 @@ def check_cells(blocks, problems):
                                     f"cells ({shown}), about {total * BYTES_PER_CELL / 1e9:.1f} GB; at most "
                                     f"{MAX_CELLS:,} cells are allowed in one patch, all lattices together")
             return
-
-
-def kernel_items(blocks):
-    """What one kernel compiles: every block that is not a mass-spring one, and each network."""
-    return sum(1 for b in blocks.values() if not is_mass_spring(b)) + len(group(blocks))
 
 
 def _worst_exact(members, springs, rate):
@@ -411,3 +537,41 @@ def check_stability(blocks, rate, problems):
         problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): unstable at {rate:g} Hz: cell "
                                 f"{label} has dt²·Σk/m + dt·γ/m = {number:.3g}, the half-step "
                                 f"scheme needs < {STABILITY_BOUND:g} ({'; '.join(hints)}; or raise the rate)")
+
+
+class MassSpring(Family):
+    """Cells, lattices and springs (Howard & Rimell 2003), fused group by group into a Network
+    stepped by the half-step scheme: `network_step` (CSR) or a stencil for a uniform lattice."""
+
+    point_ports = CELL_PORTS
+
+    @classmethod
+    def joins(cls, inst):
+        return _joins(inst)
+
+    @classmethod
+    def link_ends(cls, inst):
+        if inst.cls.type_name != "spring":
+            return []
+        return [(inst.values[k].split("[")[0].strip(), inst.values[k].strip()) for k in ("a", "b")]
+
+    @classmethod
+    def check(cls, members, problems, declared, rate):
+        before = len(problems.problems)
+        check_springs(members, problems, declared)
+        check_cells(members, problems)      # before anything sized by the cells is built
+        if len(problems.problems) == before:
+            check_stability(members, rate, problems)
+
+    @classmethod
+    def point_problem(cls, inst, index, port, role):
+        check_cell = getattr(inst.cls, "check_cell", None)
+        if check_cell is None:
+            return f"block {inst.name!r} ({inst.cls.type_name}) is one cell: write it without an index"
+        return check_cell(inst.values, index, port, role)
+
+    @classmethod
+    def build(cls, members, rate, editable=False):
+        bodies = [b for b in members if b.cls.type_name != "spring"]
+        springs = [b for b in members if b.cls.type_name == "spring"]
+        return Network(bodies, springs, rate, stencils=not editable) if bodies else None

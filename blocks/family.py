@@ -1,0 +1,132 @@
+"""Fused families: block types whose instances the compiler fuses, group by group, into ONE step.
+
+A block type joins a family by naming it (`family = MassSpring`). Every group of the family's
+blocks that touch one another (`joins`) is built into a `Group`: a few arrays (structure of
+arrays, updated in place), the points a patch can address as `NAME[i, ...].PORT`, and one step
+per sample. The compiler and the reference interpreter know families only through this
+protocol, so a plugin adds a family (or a new link law inside one) without touching graph/.
+
+The step's arguments are spelled with the four small values below, which the compiler turns into
+kernel arguments and the interpreter into Python values, one meaning for both:
+  Array(key)                  one of the group's arrays
+  Number(value, kind, name)   data: a size, a time step (loaded from an array: editing it re-uses the kernel)
+  Flag(value)                 structure: a literal in the kernel (a boundary kind, a branch)
+  Control(block, param, inverse)  the live value of a member's parameter, or the sum of the
+                              connections driving it; 1/value when `inverse`
+A family's `check` reports with `problems.add(line, message)`.
+"""
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Array:
+    key: str
+
+
+@dataclass(frozen=True)
+class Number:
+    value: float
+    kind: str = "float"       # "float", "int" or "index" (an integer ≥ 0)
+    name: str = "n"
+
+
+@dataclass(frozen=True)
+class Flag:
+    value: bool
+
+
+@dataclass(frozen=True)
+class Control:
+    block: str
+    param: str
+    inverse: bool = False
+
+
+class Family:
+    """The protocol of a fused family (class methods; subclass it)."""
+
+    point_ports = {}          # port of an addressed point -> "input" or "output"
+
+    @classmethod
+    def joins(cls, inst):
+        """Names of the blocks a member joins (a spring: the blocks of its two cells)."""
+        return ()
+
+    @classmethod
+    def link_ends(cls, inst):
+        """[(block name, point as written)] of the two points a link member joins; [] otherwise."""
+        return []
+
+    @classmethod
+    def check(cls, members, problems, declared, rate):
+        """Family-wide checks of all the patch's members (a dict name -> instance): references,
+        sizes, stability. `declared`: every block name of the patch (also those with problems)."""
+
+    @classmethod
+    def point_problem(cls, inst, index, port, role):
+        """What is wrong with `NAME[index].port` used as an `role` ('input'/'output'), or None."""
+        return f"block {inst.name!r} has no points"
+
+    @classmethod
+    def cost(cls, members):
+        """How many blocks a group counts for against the one-kernel limit."""
+        return 1
+
+    @classmethod
+    def build(cls, members, rate, editable=False):
+        """The Group of touching members (in patch order)."""
+        raise NotImplementedError
+
+
+class Group:
+    """One fused group: what the compiler and the interpreter read (attributes and methods)."""
+
+    names = ()                # member block names
+    arrays = {}               # key -> numpy array, each a kernel argument
+
+    def point(self, block, index):
+        """The index of point `block[index]` (index None for a one-point block) in the group's
+        arrays, or None if it has no such point."""
+        raise NotImplementedError
+
+    def point_array(self, port):
+        """The key of the array an output port reads, or an input port adds into."""
+        raise NotImplementedError
+
+    def controls(self):
+        """[(array key, (row, col), Control)]: set every sample before the step."""
+        return []
+
+    def step(self):
+        """(function, [Array | Number | Flag | Control]): the per-sample update, a @helper."""
+        raise NotImplementedError
+
+    def views(self, block):
+        """Writable views of what `block` remembers between samples (a reload carries them)."""
+        return ()
+
+    def edit(self, block, index, action, apply=True):
+        """Change a point between kernel calls (e.g. lock, unlock, cut); ValueError if refused;
+        `apply=False`: only the check."""
+        raise ValueError(f"{block}: this group cannot be edited while playing")
+
+
+def touching(members, joins):
+    """Members (instances with .name and .index) grouped by touch, each group in patch order,
+    groups in the order of their first member: union-find over `joins(inst)` (names; names
+    outside `members` are ignored)."""
+    parent = {b.name: b.name for b in members}
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+    for b in members:
+        for other in joins(b):
+            if other in parent:
+                parent[find(other)] = find(b.name)
+    groups = {}
+    for b in sorted(members, key=lambda b: b.index):
+        groups.setdefault(find(b.name), []).append(b)
+    return list(groups.values())

@@ -1,0 +1,124 @@
+"""Fused families in the compiler: grouping, checks, and each group as one schedule item.
+
+A block type names its family (`family = ...`, a `hapticgraph.blocks.family.Family`); this
+module knows families only through that protocol. `groups` groups a patch's family members by
+touch, `check_families` runs each family's checks, and a `GroupStep` plans one built group: its
+arrays become kernel arguments named after the group's first member (`str_x`, `str_v`), the
+points the patch wires become numbers (data), the forces wired into points are summed into the
+group's input array, its controls and step arguments become IR nodes (graph/ir.py) — one
+meaning, emitted for the kernel and evaluated by the interpreter.
+"""
+from ..blocks.family import Array, Control, Flag, Number, touching
+from .ir import ArrayItem, Inverse, Literal, Sum
+
+
+def family_of(inst):
+    return getattr(inst.cls, "family", None)
+
+
+def members(blocks, family):
+    return {name: b for name, b in blocks.items() if family_of(b) is family}
+
+
+def families(blocks):
+    """The families of a patch's blocks, in order of first appearance."""
+    return list(dict.fromkeys(f for f in map(family_of, sorted(blocks.values(), key=lambda b: b.index)) if f))
+
+
+def groups(blocks):
+    """[(family, members)]: every group of touching members of each family, in patch order."""
+    out = []
+    for family in families(blocks):
+        out += [(family, g) for g in touching(list(members(blocks, family).values()), family.joins)]
+    return out
+
+
+def check_families(blocks, problems, declared, rate):
+    for family in families(blocks):
+        family.check(members(blocks, family), problems, declared, rate)
+
+
+def kernel_cost(blocks):
+    """What one kernel compiles, in blocks: every block outside a family, and each group's cost."""
+    return sum(1 for b in blocks.values() if family_of(b) is None) + sum(
+        family.cost(g) for family, g in groups(blocks))
+
+
+class GroupStep:
+    """One fused group's plan and its schedule item: the wired forces added into its points, its
+    controls set, then its step — after every block's update, each sample."""
+
+    def __init__(self, prog, family, group):
+        self.prog, self.family, self.group = prog, family, group
+        self.prefix = prog.by_name[group.names[0]].ident
+        self.arrays = {}                 # key -> ArrayRef
+        for key, value in group.arrays.items():
+            self.arrays[key] = prog.array(value, self.prefix, key)
+        self.points = {}                 # point index -> its number node
+        self.forces = {}                 # (array key, point index) -> [sources]
+        self.sets, self.call = [], None
+
+    def point(self, end):
+        """The point index of an endpoint, or None."""
+        return self.group.point(end.block, end.index)
+
+    def _index(self, flat):
+        if flat not in self.points:
+            self.points[flat] = self.prog.number(flat, "index", self.prefix, f"p{len(self.points)}")
+        return self.points[flat]
+
+    def element(self, end):
+        """What a connection from a point's output port reads: one element of a group array."""
+        ref = self.arrays[self.group.point_array(end.port)]
+        return ArrayItem(ref.index, self._index(self.point(end)), ref.local)
+
+    def add_force(self, end, source):
+        key = (self.group.point_array(end.port), self.point(end))
+        self._index(key[1])
+        self.forces.setdefault(key, []).append(source)
+
+    def driven(self, end):
+        """The sum of what is wired into a point's input port."""
+        return Sum(tuple(self.forces.get((self.group.point_array(end.port), self.point(end)), ())))
+
+    def _node(self, arg):
+        prog = self.prog
+        if isinstance(arg, Array):
+            return self.arrays[arg.key]
+        if isinstance(arg, Number):
+            return prog.number(arg.value, arg.kind, self.prefix, arg.name)
+        if isinstance(arg, Flag):
+            return Literal(bool(arg.value))
+        if isinstance(arg, Control):
+            node = prog.param_binding(prog.by_name[arg.block], arg.param)
+            return Inverse(node) if arg.inverse else node
+        raise TypeError(f"a family step argument must be Array, Number, Flag or Control, not {arg!r}")
+
+    def bind(self):
+        """Controls and step arguments as IR nodes (once live slots exist)."""
+        self.sets = [(self.arrays[key], tuple(int(i) for i in at), self._node(c))
+                     for key, at, c in self.group.controls()]
+        fn, args = self.group.step()
+        self.call = (fn, [self._node(a) for a in args])
+
+    # -- the schedule-item protocol ------------------------------------------------------------
+    def functions(self):
+        return [self.call[0]]
+
+    def emit(self, e):
+        from .kernel import note
+        e(f"# {note(', '.join(self.group.names))} ({note(self.family.__name__)} group)")
+        for (key, flat), sources in self.forces.items():
+            e(f"{self.arrays[key].emit()}[{self.points[flat].emit()}] += {Sum(tuple(sources)).emit()}")
+        for ref, at, node in self.sets:
+            e(f"{ref.emit()}[{', '.join(map(str, at))}] = {node.emit()}")
+        fn, args = self.call
+        e(f"{fn.__name__}({', '.join(a.emit() for a in args)})")
+
+    def run(self, frame):
+        for (key, flat), sources in self.forces.items():
+            frame.arrays[self.arrays[key].index][self.points[flat].value(frame)] += Sum(tuple(sources)).value(frame)
+        for ref, at, node in self.sets:
+            frame.arrays[ref.index][at] = node.value(frame)
+        fn, args = self.call
+        fn(*[a.value(frame) for a in args])

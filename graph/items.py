@@ -1,0 +1,108 @@
+"""Schedule items: everything the kernel does in one sample, in order, through one protocol.
+
+Each item offers
+  functions()   the Python functions it calls (the kernel imports them; the cache key hashes them)
+  emit(e)       its lines of the kernel's sample loop (e: a graph.kernel.Emitter)
+  run(frame)    the same step in the reference interpreter (frame: graph.ir.Frame)
+and the compiler and the interpreter loop over `Program.items` and nothing else: a block's
+output (with its per-sample derive), a recorded value (audio, probe, the force a device
+receives), a block's update, a fused family group's step (graph.family.GroupStep).
+"""
+from .ir import Sum, ident
+
+
+def _args(nodes):
+    return ", ".join(node.emit() for node in nodes)
+
+
+def _tname(bp):
+    return ident(bp.cls.type_name, "block type name")
+
+
+class BlockOutput:
+    """A block's outputs this sample (after its coefficients, when they follow a signal)."""
+
+    def __init__(self, prog, bp):
+        self.prog, self.bp = prog, bp
+        self.params = bp.cls.param_tuple() if bp.coef_mode == "per_sample" else None
+
+    def functions(self):
+        cls = self.bp.cls
+        return ([cls.derive] if self.params is not None else []) + ([cls.output] if cls.output else [])
+
+    def emit(self, e):
+        from .kernel import note
+        bp, prog, tname = self.bp, self.prog, _tname(self.bp)
+        e(f"# {note(bp.name, 30)} ({tname})")
+        if self.params is not None:
+            coefs, params = (ident(name, "derived coefficients") for name in prog.derived(bp))
+            e(f"{coefs} = {tname}_derive({params}({_args(bp.derive_args.values())}), {prog.rate_node().emit()})")
+        if bp.cls.output is not None:
+            outs = [prog.output(bp, o.attr).emit() for o in bp.cls.outputs]
+            e(f"{', '.join(outs)} = {tname}_output({_args(bp.output_args)})")
+
+    def run(self, frame):
+        bp = self.bp
+        if self.params is not None:
+            args = [b.value(frame) for b in bp.derive_args.values()]
+            frame.derived[bp.index] = bp.cls.derive(self.params(*args), self.prog.rate_node().value(frame))
+        if bp.cls.output is None:
+            return
+        result = bp.cls.output(*[b.value(frame) for b in bp.output_args])
+        if len(bp.cls.outputs) == 1:
+            result = (result,)
+        for o, v in zip(bp.cls.outputs, result):
+            frame.outs[(bp.index, o.attr)] = v
+
+
+class Record:
+    """One recorded value: rec[i, column] (an audio channel, a probe, a device's force)."""
+
+    def __init__(self, column, label, binding):
+        self.column, self.label, self.binding = column, label, binding
+
+    def functions(self):
+        return []
+
+    def emit(self, e):
+        from .kernel import note
+        e(f"rec[i, {int(self.column)}] = {self.binding.emit()}  # {note(self.label)}")
+
+    def run(self, frame):
+        frame.rec_row[self.column] = self.binding.value(frame)
+
+
+class BlockUpdate:
+    """A block's next state, once every output of the sample is known."""
+
+    def __init__(self, prog, bp):
+        self.prog, self.bp = prog, bp
+
+    def functions(self):
+        return [self.bp.cls.update]
+
+    def emit(self, e):
+        bp = self.bp
+        call = f"{_tname(bp)}_update({_args(bp.update_args)})"
+        e(f"{_args(bp.state_nodes)} = {call}" if bp.states else call)
+
+    def run(self, frame):
+        bp = self.bp
+        result = bp.cls.update(*[b.value(frame) for b in bp.update_args])
+        if bp.states:
+            if len(bp.states) == 1:
+                result = (result,)
+            for slot, v in zip(bp.states, result):
+                frame.state[slot] = v
+
+
+def schedule_items(prog):
+    """The kernel's sample, in order: outputs in schedule order, records, updates, group steps."""
+    items = [BlockOutput(prog, bp) for bp in prog.plans
+             if bp.cls.output is not None or bp.coef_mode == "per_sample"]
+    items += [Record(k, label, binding) for k, (label, binding) in enumerate(prog.records)]
+    items += [BlockUpdate(prog, bp) for bp in prog.plans if bp.cls.update is not None]
+    return items + list(prog.groups)
+
+
+__all__ = ["BlockOutput", "BlockUpdate", "Record", "Sum", "schedule_items"]
