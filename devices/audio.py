@@ -24,8 +24,9 @@ import time
 import numpy as np
 
 from ..graph.engine import Driver, SafetyStop, Session
+# sound_cards' and watch's names are re-exported: the play command and the tests find them here
 from .sound_cards import AudioError, find_device, rescan, sound_cards, sounddevice
-from .watch import Watcher, carry_state, plugin_files, reload_drivers   # re-exported, as sound_cards' names
+from .watch import Watcher, carry_state, plugin_files, reload_drivers
 
 PLAY, FADE_RUN, FADE_HOLD, DONE = 0, 1, 2, 3
 FLAGS = ("output_underflow", "output_overflow", "input_underflow", "input_overflow", "priming_output")
