@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from ..graph.engine import Driver, SafetyStop, Session
+
 # sound_cards' and watch's names are re-exported: the play command and the tests find them here
 from .sound_cards import AudioError, find_device, rescan, sound_cards, sounddevice
 from .watch import Watcher, carry_state, plugin_files, reload_drivers
