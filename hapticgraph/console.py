@@ -24,50 +24,60 @@ def parse(line, prog):
         return None
     verb, rest = words[0].lower(), (words[1] if len(words) > 1 else "")
     if verb == "set":
-        m = re.fullmatch(r"\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)\s*=?\s*(\S+)\s*", rest)
-        if not m:
-            raise ValueError("set BLOCK.PARAM VALUE")
-        block, name, raw = m.groups()
-        bp = prog.by_name.get(block)
-        if bp is None:
-            raise ValueError(f"no block named {block!r}")
-        param = bp.cls.params.get(name)
-        if param is None or not param.live:
-            raise ValueError(f"{block}.{name} is not a live parameter")
-        if name in bp.live_sources:
-            raise ValueError(f"{block}.{name} is driven by a connection")
-        try:
-            value = float(raw)
-        except ValueError:
-            raise ValueError(f"{raw!r} is not a number") from None
-        for bound, ok in ((param.minimum, lambda v, b: v >= b), (param.maximum, lambda v, b: v <= b),
-                          (param.above, lambda v, b: v > b), (param.below, lambda v, b: v < b)):
-            if bound is not None and not ok(value, bound):
-                raise ValueError(f"{value:g} is outside the range of {block}.{name}")
-        return prog.set_param, (block, name, value), f"{block}.{name} = {value:g}"
+        return _parse_set(rest, prog)
     if verb in ("lock", "unlock", "cut"):
-        ref = parse_ref(rest)
-        if ref is None:
-            raise ValueError(f"{verb} NAME[i, j]")
-        name, index = ref
-        net = prog.network_of.get(name)
-        if net is None:
-            raise ValueError(f"{name!r} is not a lattice or cell block")
-        if net.net.stencil is not None:
-            raise ValueError("this patch plays on a stencil; cells can only be edited with --console from the start")
-        comp = net.net.by_name[name]
-        if comp.shape:
-            from .blocks.lattice import index_problem
-            problem = index_problem(list(comp.shape), list(index or ()))
-            if problem:
-                raise ValueError(problem)
-        flat = comp.flat(index)
-        if flat is None or net.cut_cells.get(flat):
-            raise ValueError(f"{rest.strip()} is cut")
-        return prog.edit_cell, (name, index, verb), f"{verb} {rest.strip()}"
+        return _parse_edit(verb, rest, prog)
     if verb == "help":
         raise ValueError(HELP)
     raise ValueError(f"unknown command {verb!r}; {HELP}")
+
+
+def _parse_set(rest, prog):
+    """`set BLOCK.PARAM VALUE`: a live parameter no connection drives, within its range."""
+    m = re.fullmatch(r"\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)\s*=?\s*(\S+)\s*", rest)
+    if not m:
+        raise ValueError("set BLOCK.PARAM VALUE")
+    block, name, raw = m.groups()
+    bp = prog.by_name.get(block)
+    if bp is None:
+        raise ValueError(f"no block named {block!r}")
+    param = bp.cls.params.get(name)
+    if param is None or not param.live:
+        raise ValueError(f"{block}.{name} is not a live parameter")
+    if name in bp.live_sources:
+        raise ValueError(f"{block}.{name} is driven by a connection")
+    try:
+        value = float(raw)
+    except ValueError:
+        raise ValueError(f"{raw!r} is not a number") from None
+    for bound, ok in ((param.minimum, lambda v, b: v >= b), (param.maximum, lambda v, b: v <= b),
+                      (param.above, lambda v, b: v > b), (param.below, lambda v, b: v < b)):
+        if bound is not None and not ok(value, bound):
+            raise ValueError(f"{value:g} is outside the range of {block}.{name}")
+    return prog.set_param, (block, name, value), f"{block}.{name} = {value:g}"
+
+
+def _parse_edit(verb, rest, prog):
+    """`lock|unlock|cut NAME[i, j]`: a cell of a lattice or cell block that is not cut."""
+    ref = parse_ref(rest)
+    if ref is None:
+        raise ValueError(f"{verb} NAME[i, j]")
+    name, index = ref
+    net = prog.network_of.get(name)
+    if net is None:
+        raise ValueError(f"{name!r} is not a lattice or cell block")
+    if net.net.stencil is not None:
+        raise ValueError("this patch plays on a stencil; cells can only be edited with --console from the start")
+    comp = net.net.by_name[name]
+    if comp.shape:
+        from .blocks.lattice import index_problem
+        problem = index_problem(list(comp.shape), list(index or ()))
+        if problem:
+            raise ValueError(problem)
+    flat = comp.flat(index)
+    if flat is None or net.cut_cells.get(flat):
+        raise ValueError(f"{rest.strip()} is cut")
+    return prog.edit_cell, (name, index, verb), f"{verb} {rest.strip()}"
 
 
 class Console(threading.Thread):
