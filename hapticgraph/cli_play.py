@@ -4,7 +4,7 @@ import signal
 import sys
 
 from .cli_common import UsageError, audio_channels, device_choices
-from .devices import DeviceError, audio, open_drivers
+from .devices import DeviceError, audio, check_choices, open_drivers
 from .devices.record import Recorder
 from .devices.replay import replay_drivers
 from .graph.patch import load
@@ -20,10 +20,10 @@ def cmd_play(args):
     if args.replay and args.watch:
         raise UsageError("--replay and --watch do not go together")
     patch = load(args.patch, overrides=args.overrides)
-    unknown = sorted(set(choices) - set(patch.devices))
-    if unknown:
-        raise UsageError(f"--device: the patch declares no device named {', '.join(unknown)} "
-                         f"(its devices: {', '.join(patch.devices) or 'none'})")
+    try:
+        check_choices(patch, choices)
+    except DeviceError as exc:
+        raise UsageError(str(exc)) from None
     try:
         audio.sounddevice()
     except audio.AudioError as exc:
