@@ -55,6 +55,7 @@ def parse_choice(text):
     """`NAME=DRIVER[,KEY=VALUE...]` -> (name, Choice). Each VALUE is read as a YAML scalar (text
     for text settings) and checked against the driver's setting schema, like the patch file's."""
     import jsonschema
+
     from ..graph.errors import Collector
     from ..graph.source import parse_value
     name, sep, rest = text.partition("=")
@@ -128,6 +129,14 @@ def _driver_of(spec, kinds):
     return driver_of(spec, kinds)
 
 
+def check_choices(patch, choices):
+    """DeviceError unless every device the command line chose a driver for is one of the patch's."""
+    unknown = set(choices or ()) - set(patch.devices)
+    if unknown:
+        raise DeviceError(f"--device: the patch declares no device named {', '.join(sorted(unknown))} "
+                          f"(its devices: {', '.join(patch.devices) or 'none'})")
+
+
 def open_drivers(patch, choices=None, live_input=None, notes=None):
     """A Driver for each device entry of a patch (`choices`, name → a driver name or a Choice
     with settings, overrides the file), and one for each block fed from outside (audio_in: its
@@ -135,10 +144,7 @@ def open_drivers(patch, choices=None, live_input=None, notes=None):
     device entry's `file` (a replay take) is relative to the patch. Notes (settings ignored for
     another driver) are appended to `notes`, or printed on stderr."""
     choices = dict(choices or {})
-    unknown = set(choices) - set(patch.devices)
-    if unknown:
-        raise DeviceError(f"--device: the patch declares no device named {', '.join(sorted(unknown))} "
-                          f"(its devices: {', '.join(patch.devices) or 'none'})")
+    check_choices(patch, choices)
     kinds = kinds_of(patch)
     said = [] if notes is None else notes
     drivers = {}
@@ -164,5 +170,5 @@ def open_drivers(patch, choices=None, live_input=None, notes=None):
     return drivers
 
 
-__all__ = ["DRIVERS", "Choice", "DeviceError", "SimulatedDevice", "SimulatedHaptic", "WavInput", "open_drivers",
+__all__ = ["DRIVERS", "Choice", "DeviceError", "check_choices", "SimulatedDevice", "SimulatedHaptic", "WavInput", "open_drivers",
            "parse_choice"]

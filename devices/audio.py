@@ -18,95 +18,19 @@ stops; a SafetyStop (NaN, infinity, runaway, lost device) has already sent zero 
 faulty block — the audio then fades from its last good sample to silence over `fade` seconds, and
 the run stops with the reason.
 """
-import copy
-import os
-import sys
 import threading
 import time
 
 import numpy as np
 
 from ..graph.engine import Driver, SafetyStop, Session
-from .kinds import same as _same
+
+# sound_cards' and watch's names are re-exported: the play command and the tests find them here
+from .sound_cards import AudioError, find_device, rescan, sound_cards, sounddevice
+from .watch import Watcher, carry_state, plugin_files, reload_drivers
 
 PLAY, FADE_RUN, FADE_HOLD, DONE = 0, 1, 2, 3
 FLAGS = ("output_underflow", "output_overflow", "input_underflow", "input_overflow", "priming_output")
-
-
-class AudioError(Exception):
-    """A sound card problem the user can fix (unknown device, unsupported rate, no PortAudio)."""
-
-
-def sounddevice():
-    """The sounddevice module, or AudioError saying what to install."""
-    try:
-        import sounddevice as sd
-    except ImportError:
-        raise AudioError("play needs the sounddevice package: pip install 'hapticgraph[audio]'") from None
-    except OSError as exc:
-        raise AudioError(f"the PortAudio library was not found ({exc}); on Debian/Ubuntu: "
-                         "apt-get install libportaudio2") from None
-    return sd
-
-
-def rescan():
-    """Make PortAudio enumerate the devices again (e.g. after a JACK server started)."""
-    sd = sounddevice()
-    sd._terminate()
-    sd._initialize()
-
-
-def sound_cards():
-    """[{index, name, hostapi, inputs, outputs, rate, default_in, default_out}] of every device."""
-    sd = sounddevice()
-    apis = sd.query_hostapis()
-    out = []
-    try:
-        devices = sd.query_devices()
-    except sd.PortAudioError:
-        return out
-    try:
-        din, dout = sd.default.device
-    except Exception:  # noqa: BLE001 - no default device
-        din = dout = -1
-    for i, d in enumerate(devices):
-        out.append({"index": i, "name": d["name"], "hostapi": apis[d["hostapi"]]["name"],
-                    "inputs": d["max_input_channels"], "outputs": d["max_output_channels"],
-                    "rate": d["default_samplerate"], "default_in": i == din, "default_out": i == dout})
-    return out
-
-
-def find_device(spec, kind="output", channels=1):
-    """The PortAudio index of a device given by index or by (part of) its name; None: the default."""
-    sd = sounddevice()
-    cards = [c for c in sound_cards() if c["inputs" if kind == "input" else "outputs"] > 0]
-    listing = "; ".join(f"{c['index']}: {c['name']} ({c['hostapi']})" for c in cards) or "none found"
-    if spec is None or spec == "":
-        try:
-            info = sd.query_devices(kind=kind)
-        except sd.PortAudioError:
-            raise AudioError(f"no default audio {kind} device (devices: {listing})") from None
-        index = int(info["index"]) if "index" in info else None
-    elif str(spec).strip().lstrip("-").isdigit():
-        index = int(spec)
-        if not any(c["index"] == index for c in cards):
-            raise AudioError(f"no audio {kind} device with index {index} (devices: {listing})")
-    else:
-        needle = str(spec).lower()
-        exact = [c for c in cards if c["name"].lower() == needle]
-        found = exact or [c for c in cards if needle in c["name"].lower()]
-        if not found:
-            raise AudioError(f"no audio {kind} device named {spec!r} (devices: {listing})")
-        if len(found) > 1:
-            raise AudioError(f"audio {kind} device {spec!r} is ambiguous: "
-                             + "; ".join(f"{c['index']}: {c['name']}" for c in found))
-        index = found[0]["index"]
-    if index is not None:
-        have = next(c for c in sound_cards() if c["index"] == index)
-        n = have["inputs" if kind == "input" else "outputs"]
-        if n < channels:
-            raise AudioError(f"audio {kind} device {have['name']!r} has {n} channel(s); the patch needs {channels}")
-    return index
 
 
 class LiveInput(Driver):
@@ -219,30 +143,40 @@ class Player:
         self.nxrun = 0
         self.swaps = self.reload_errors = 0
         self.wall = 0.0
+        self.stream = self._open_stream(device, input_device, latency)
+        lat = self.stream.latency
+        self.latency = float(lat[1] if isinstance(lat, (tuple, list)) else lat)
+        self.device_name = self._device_name()
+
+    def bind(self, session):
+        """`session` prepared for this player's callback (what `offer` takes)."""
+        return Bound(session, self.out_channels)
+
+    def _open_stream(self, device, input_device, latency):
+        """A duplex stream when the patch has live inputs, else an output stream."""
         sd = self.sd
-        live = bool(self.bound.live)
         try:
-            if live:
+            if self.bound.live:
                 in_ch = 1 + max(d.channel for d in self.bound.live)
-                self.stream = sd.Stream(samplerate=self.rate, blocksize=self.blocksize, device=(input_device, device),
-                                        channels=(in_ch, self.out_channels), dtype="float32", latency=latency,
-                                        callback=self._duplex, finished_callback=self.done.set)
-            else:
-                self.stream = sd.OutputStream(samplerate=self.rate, blocksize=self.blocksize, device=device,
-                                              channels=self.out_channels, dtype="float32", latency=latency,
-                                              callback=self._output, finished_callback=self.done.set)
+                return sd.Stream(samplerate=self.rate, blocksize=self.blocksize, device=(input_device, device),
+                                 channels=(in_ch, self.out_channels), dtype="float32", latency=latency,
+                                 callback=self._duplex, finished_callback=self.done.set)
+            return sd.OutputStream(samplerate=self.rate, blocksize=self.blocksize, device=device,
+                                   channels=self.out_channels, dtype="float32", latency=latency,
+                                   callback=self._output, finished_callback=self.done.set)
         except (sd.PortAudioError, ValueError) as exc:
             raise AudioError(f"cannot open the sound card at {self.rate:g} Hz, {self.out_channels} channel(s), "
                              f"blocks of {self.blocksize}: {exc}") from None
-        lat = self.stream.latency
-        self.latency = float(lat[1] if isinstance(lat, (tuple, list)) else lat)
+
+    def _device_name(self):
+        sd = self.sd
         dev = self.stream.device
         index = dev[1] if isinstance(dev, (tuple, list)) else dev
         try:
             info = sd.query_devices(index)
-            self.device_name = f"{info['name']!r} ({sd.query_hostapis(info['hostapi'])['name']})"
+            return f"{info['name']!r} ({sd.query_hostapis(info['hostapi'])['name']})"
         except Exception:  # noqa: BLE001
-            self.device_name = f"device {index}"
+            return f"device {index}"
 
     # -- the audio thread ------------------------------------------------------------------------
     def _output(self, outdata, frames, time_info, status):
@@ -284,72 +218,82 @@ class Player:
             self.late += 1
 
     def _fill(self, indata, outdata, frames):
-        b, rec_ = self.bound, self.recorder
         mode, pos = self.mode, 0
         if mode == PLAY and self.stop_requested:
             mode, self.fade_pos = FADE_RUN, 0
         while pos < frames:
-            n = frames - pos
             if mode == PLAY or mode == FADE_RUN:
-                if self.remaining is not None:
-                    if self.remaining == 0:
-                        mode = DONE
-                        continue
-                    n = min(n, self.remaining)
-                if n > b.bs:
-                    n = b.bs
-                if indata is not None:
-                    block = indata if (pos == 0 and n == frames) else indata[pos:pos + n]
-                    for d in b.live:
-                        d.block = block
-                session = b.session
-                try:
-                    rec = session.process(n)
-                except SafetyStop as exc:
-                    self.problem = str(exc)
-                    if rec_ is not None:
-                        rec_.push_inputs(session.ext[:n], None)
-                    if mode == PLAY:
-                        self.fade_pos = 0
-                    mode = FADE_HOLD
-                    continue
-                out = outdata if (pos == 0 and n == frames) else outdata[pos:pos + n]
-                ch = b.ch
-                if ch == outdata.shape[1]:
-                    np.copyto(out, rec[:, :ch], casting="same_kind")
-                else:
-                    out.fill(0.0)
-                    if ch:
-                        np.copyto(out[:, :ch], rec[:, :ch], casting="same_kind")
-                if mode == FADE_RUN:
-                    k = min(n, self.nfade - self.fade_pos)
-                    out[:k] *= self.ramp[self.fade_pos:self.fade_pos + k, None]
-                    out[k:] = 0.0
-                    self.fade_pos += k
-                    if self.fade_pos >= self.nfade:
-                        mode = DONE
-                np.copyto(self.last, out[n - 1])
-                if rec_ is not None:
-                    rec_.push_inputs(session.ext[:n], rec[:, b.f0:])
-                    rec_.push_audio(out)
-                self.frames_done += n
-                if self.remaining is not None:
-                    self.remaining -= n
+                n, mode = self._play(indata, outdata, pos, frames, mode)
             elif mode == FADE_HOLD:
-                n = min(n, self.nfade - self.fade_pos)
-                out = outdata[pos:pos + n]
-                np.multiply(self.ramp[self.fade_pos:self.fade_pos + n, None], self.last, out=out)
-                self.fade_pos += n
-                if self.fade_pos >= self.nfade:
-                    mode = DONE
-                if rec_ is not None:
-                    rec_.push_audio(out)
+                n, mode = self._hold(outdata, pos, frames - pos)
             else:
                 outdata[pos:].fill(0.0)
                 self.done.set()
                 n = frames - pos
             pos += n
         self.mode = mode
+
+    def _play(self, indata, outdata, pos, frames, mode):
+        """Run the patch for the next frames (at most a session block) from `pos` on; (frames
+        done, next mode). A SafetyStop or the end of `--seconds` does none and changes the mode."""
+        b, rec_ = self.bound, self.recorder
+        n = frames - pos
+        if self.remaining is not None:
+            if self.remaining == 0:
+                return 0, DONE
+            n = min(n, self.remaining)
+        n = min(n, b.bs)
+        if indata is not None:
+            block = indata if (pos == 0 and n == frames) else indata[pos:pos + n]
+            for d in b.live:
+                d.block = block
+        session = b.session
+        try:
+            rec = session.process(n)
+        except SafetyStop as exc:
+            self.problem = str(exc)
+            if rec_ is not None:
+                rec_.push_inputs(session.ext[:n], None)
+            if mode == PLAY:
+                self.fade_pos = 0
+            return 0, FADE_HOLD
+        out = outdata if (pos == 0 and n == frames) else outdata[pos:pos + n]
+        ch = b.ch
+        if ch == outdata.shape[1]:
+            np.copyto(out, rec[:, :ch], casting="same_kind")
+        else:
+            out.fill(0.0)
+            if ch:
+                np.copyto(out[:, :ch], rec[:, :ch], casting="same_kind")
+        if mode == FADE_RUN:
+            mode = self._fade_out(out, n)
+        np.copyto(self.last, out[n - 1])
+        if rec_ is not None:
+            rec_.push_inputs(session.ext[:n], rec[:, b.f0:])
+            rec_.push_audio(out)
+        self.frames_done += n
+        if self.remaining is not None:
+            self.remaining -= n
+        return n, mode
+
+    def _fade_out(self, out, n):
+        """Ramp the block just played down (Ctrl-C: the patch keeps running under the fade)."""
+        k = min(n, self.nfade - self.fade_pos)
+        out[:k] *= self.ramp[self.fade_pos:self.fade_pos + k, None]
+        out[k:] = 0.0
+        self.fade_pos += k
+        return DONE if self.fade_pos >= self.nfade else FADE_RUN
+
+    def _hold(self, outdata, pos, n):
+        """After a SafetyStop: fade the last good sample to silence; (frames done, next mode)."""
+        n = min(n, self.nfade - self.fade_pos)
+        out = outdata[pos:pos + n]
+        np.multiply(self.ramp[self.fade_pos:self.fade_pos + n, None], self.last, out=out)
+        self.fade_pos += n
+        mode = DONE if self.fade_pos >= self.nfade else FADE_HOLD
+        if self.recorder is not None:
+            self.recorder.push_audio(out)
+        return n, mode
 
     def _swap(self):
         new, old = self.pending, self.bound
@@ -409,203 +353,11 @@ class Player:
         return Report(self)
 
 
-# -- --watch: reload the patch, keep the state of unchanged blocks -------------------------------------
-def _incoming(patch):
-    into = {}
-    for c in patch.connections:
-        into.setdefault(c.dst.block, []).append(str(c))
-    return {k: sorted(v) for k, v in into.items()}
-
-
-def carry_state(old, new):
-    """(dst, src) array pairs that give `new` (a Program) the current state of every block of
-    `old` whose type, parameters and incoming connections did not change: its State slots, its
-    buffers (ring buffers stay valid because the shared sample counter carries over) and its
-    cells' positions and velocities (Program.state_views). Also returns the names kept."""
-    if old.rate != new.rate:
-        return [], []
-    into_old, into_new = _incoming(old.patch), _incoming(new.patch)
-    pairs, kept = [], []
-    for name in new.patch.order:
-        was = old.patch.blocks.get(name)
-        if was is None or was.cls is not new.patch.blocks[name].cls:
-            continue
-        if not _same(old.block_values(name), new.block_values(name)):
-            continue
-        if into_old.get(name, []) != into_new.get(name, []):
-            continue
-        views_old, views_new = old.state_views(name), new.state_views(name)
-        if len(views_old) != len(views_new):
-            continue
-        same_shape = [(vn, vo) for vo, vn in zip(views_old, views_new) if vo.shape == vn.shape]
-        pairs += same_shape
-        if len(same_shape) == len(views_new):
-            kept.append(name)
-    return pairs, kept
-
-
-def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=None):
-    """Drivers for `new_patch`: the running ones of devices (and audio inputs) whose driver kind
-    keeps them (by default: the entry did not change); the others are opened. Returns (drivers,
-    opened, unused old ones)."""
-    from ..graph.patch import driver_of
-    from . import open_drivers
-    from .kinds import input_kind, kinds_of
-    kinds, old_kinds = kinds_of(new_patch), kinds_of(old_patch)
-    keep, changed_devices, changed_inputs = {}, {}, {}
-    for name, spec in new_patch.devices.items():
-        old = old_patch.devices.get(name)
-        kind = driver_of(spec, kinds)
-        if (old is not None and name in old_drivers and kind is not None
-                and driver_of(old, old_kinds) is kind and kind.kept(old, spec)):
-            keep[name] = old_drivers[name]
-        else:
-            changed_devices[name] = spec
-    for inst in new_patch.blocks.values():
-        feeder = input_kind(inst.cls)
-        if feeder is None:
-            continue
-        old = old_patch.blocks.get(inst.name)
-        if old is not None and inst.name in old_drivers and feeder.kept(old, inst):
-            keep[inst.name] = old_drivers[inst.name]
-        else:
-            changed_inputs[inst.name] = inst
-    view = copy.copy(new_patch)
-    view.devices = changed_devices
-    view.blocks = changed_inputs
-    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input)
-    drivers = dict(keep)
-    drivers.update(opened)
-    unused = [d for name, d in old_drivers.items() if drivers.get(name) is not d]
-    return drivers, opened, unused
-
-
-def plugin_files(patch):
-    """The source files of the plugin block types a patch loaded (its `plugins:`)."""
-    files = set()
-    registry = getattr(patch, "registry", None)
-    for name, cls in (registry.types.items() if registry is not None else ()):
-        if not str(registry.origin.get(name, "")).startswith("plugin"):
-            continue
-        module = sys.modules.get(cls.__module__)
-        path = getattr(module, "__file__", None)
-        if path:
-            files.add(os.path.realpath(path))
-    return sorted(files)
-
-
-class Watcher:
-    """Polls the modification times of a patch file and of its plugin files; on a change, loads
-    and compiles the new patch on its own thread (an edited plugin is imported again) and hands it
-    to the player, keeping the state of every unchanged block. A patch with errors, or a patch or
-    plugin file that was deleted, is reported in one line and the old patch keeps playing."""
-
-    def __init__(self, player, path, make_session, interval=0.25, stream=None):
-        self.player, self.path, self.make_session = player, path, make_session
-        self.interval, self.stream = interval, stream or sys.stderr
-        self.files = [os.fspath(path)] + plugin_files(player.bound.session.prog.patch)
-        self.stamps = {f: self._mtime(f) for f in self.files}
-        self.missing = set()
-        self._stop = threading.Event()
-        self.thread = threading.Thread(target=self._loop, name="hapticgraph-watch", daemon=True)
-
-    @staticmethod
-    def _mtime(path):
-        try:
-            st = os.stat(path)
-            return (st.st_mtime_ns, st.st_size, st.st_ino)
-        except OSError:
-            return None
-
-    def start(self):
-        self.thread.start()
-        return self
-
-    def stop(self):
-        self._stop.set()
-
-    def _loop(self):
-        while not self._stop.wait(self.interval):
-            try:
-                self.poll()
-            except Exception as exc:  # noqa: BLE001 - the watcher must not die silently
-                print(f"hapticgraph: --watch: {type(exc).__name__}: {exc}; still playing", file=self.stream)
-
-    def poll(self):
-        """Look at the files once; reload if one changed. True if a reload was swapped in."""
-        changed, gone = [], []
-        for f in self.files:
-            m = self._mtime(f)
-            if m == self.stamps.get(f):
-                continue
-            self.stamps[f] = m
-            (gone if m is None else changed).append(f)
-        for f in gone:
-            if f not in self.missing:
-                self.missing.add(f)
-                what = "patch" if f == self.files[0] else "plugin"
-                print(f"hapticgraph: the {what} file {os.path.basename(f)} was deleted; still playing the "
-                      "previous version", file=self.stream)
-        self.missing -= set(changed)
-        if not changed or self.missing:
-            return False
-        for f in changed:
-            if f != self.files[0]:
-                _forget_module(f)
-        ok = self.reload()
-        if ok:
-            self.files = [self.files[0]] + plugin_files(self.player.bound.session.prog.patch)
-            for f in self.files:
-                self.stamps.setdefault(f, self._mtime(f))
-        return ok
-
-    def reload(self):
-        from ..graph.errors import PatchError
-        player = self.player
-        old = player.bound.session
-        switch = sys.getswitchinterval()
-        sys.setswitchinterval(min(switch, 0.0002))   # let the audio callback in while compiling
-        try:
-            session, opened, unused = self.make_session(old)
-            bound = Bound(session, player.out_channels)
-            bound.carry, bound.kept = carry_state(old.prog, session.prog)
-            for d in opened.values():
-                d.start(session.rate)
-        except PatchError as exc:
-            player.reload_errors += 1
-            print(f"hapticgraph: {os.path.basename(self.path)} changed but has errors; still playing the "
-                  "previous version:", file=self.stream)
-            for p in exc.problems:
-                print(f"  {p}", file=self.stream)
-            return False
-        except Exception as exc:  # noqa: BLE001 - a bad reload never stops the music
-            player.reload_errors += 1
-            print(f"hapticgraph: cannot reload {os.path.basename(self.path)}: {exc}; still playing the "
-                  "previous version", file=self.stream)
-            return False
-        finally:
-            sys.setswitchinterval(switch)
-        if not player.offer(bound):
-            print("hapticgraph: reload not swapped in (the stream stopped)", file=self.stream)
-            return False
-        for d in unused:
-            d.stop()
-        kept = sorted(bound.kept)
-        print(f"hapticgraph: reloaded {os.path.basename(self.path)} at {old.t / old.rate:.3f} s; kept the "
-              f"state of {len(kept)} block(s){': ' + ', '.join(kept) if kept else ''}", file=self.stream)
-        return True
-
-
-def _forget_module(path):
-    """Drop the imported module of an edited plugin file, so the reload imports it afresh (the
-    playing kernel keeps the functions it was compiled from)."""
-    for name, module in list(sys.modules.items()):
-        file = getattr(module, "__file__", None)
-        if file and os.path.realpath(file) == path:
-            del sys.modules[name]
-
-
 def play_session(patch, drivers, blocksize, probes=(), editable=False):
     """The Session play runs (safety on: runaway at 1e3, as `run`); `editable`: cells can be
     locked, unlocked and cut while playing (lattices on the CSR path)."""
     return Session(patch, probes, drivers, "compiled", blocksize=blocksize, runaway=1e3, editable=editable)
+
+
+__all__ = ["AudioError", "Bound", "LiveInput", "Player", "Report", "Watcher", "carry_state", "find_device",
+           "play_session", "plugin_files", "reload_drivers", "rescan", "sound_cards", "sounddevice"]

@@ -1,0 +1,82 @@
+"""Replaying a take (hapticgraph.devices.take): `hapticgraph run PATCH --replay TAKE` (every
+device and audio input from the take) or a device entry `{driver: replay, file: TAKE.hgrec}` (one
+device). The take is checked against the patch before anything runs."""
+import math
+import os
+
+import numpy as np
+
+from ..graph.engine import Driver
+from .take import MODELS, Take, TakeError
+
+
+class ReplayDriver(Driver):
+    """Feeds one device (or audio input) of a patch from a take, sample for sample; past the
+    end a device holds its last values and an audio input is silent. It offers the block type
+    and internal values the device had when recorded, so the kernel is the one that played."""
+
+    def __init__(self, name, take, info):
+        self.name, self.take = name, take
+        self.columns = tuple(info["columns"])
+        self.block_type = MODELS.get(take.model_of(name, info))
+        self.values = dict(info.get("block_values") or {})
+        self.max_force = float(self.values.get("max_force", math.inf))   # a HID device's: not in the take
+        off = int(info["offset"])
+        self.signal = np.ascontiguousarray(take.inputs[:, off:off + len(self.columns)])
+        self.hold = not info.get("input", False)
+        self.sent = []
+
+    def block_values(self):
+        return dict(self.values)
+
+    def start(self, rate):
+        if float(rate) != self.take.rate:
+            raise TakeError(f"{os.path.basename(self.take.path)} was recorded at {self.take.rate:g} Hz, "
+                            f"the patch runs at {float(rate):g} Hz")
+        self.sent = []
+
+    def fill(self, t0, ext):
+        n, total = ext.shape[0], self.signal.shape[0]
+        k = max(0, min(n, total - t0))
+        if k:
+            ext[:k] = self.signal[t0:t0 + k]
+        if k < n:
+            ext[k:] = self.signal[-1] if (self.hold and total) else 0.0
+
+    def send(self, t0, force):
+        # nothing reaches a hand here, but what is kept is what a device would have received
+        force = np.nan_to_num(np.asarray(force, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+        self.sent.append(np.clip(force, -self.max_force, self.max_force))
+
+    def force_sent(self):
+        return np.concatenate(self.sent) if self.sent else np.zeros(0)
+
+
+def ReplayDevice(name, spec, patch):
+    """`driver: replay` in a device entry: `{driver: replay, file: TAKE.hgrec}` (the file is
+    relative to the patch); feeds that device from the take, checked against the patch's device."""
+    path = spec.get("file")
+    if not path:
+        raise TakeError(f"device {name!r}: driver replay needs a take: give the entry `file: TAKE.hgrec`, "
+                        "or replay a whole take with `hapticgraph run PATCH --replay TAKE.hgrec`")
+    take = Take(path)
+    take.check_device(patch, name)
+    return take.driver(name)
+
+
+def replay_drivers(patch, path):
+    """Drivers for every device and audio input of `patch` from the take at `path` (checked)."""
+    take = Take(path)
+    take.check(patch)
+    return take, {name: take.driver(name) for name in take.header["drivers"]} | {
+        name: _Idle(name) for name in patch.devices if name not in take.header["drivers"]}
+
+
+class _Idle(Driver):
+    """A declared device no block used when the take was made (it supplied no columns)."""
+
+    def __init__(self, name):
+        self.name = name
+
+
+__all__ = ["ReplayDevice", "ReplayDriver", "replay_drivers"]

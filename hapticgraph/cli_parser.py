@@ -1,0 +1,187 @@
+"""The `hapticgraph` command line's arguments: one function per command adds its options, its
+description and its examples. Building the parser imports argparse only, so `--help` and a usage
+error start at once."""
+import argparse
+import textwrap
+
+
+def build_parser():
+    ap = argparse.ArgumentParser(
+        prog="hapticgraph", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Physical-model haptic instruments from YAML patches, compiled to one kernel.",
+        epilog="examples:\n"
+               "  hapticgraph check patches/karplus_strong.yaml\n"
+               "  hapticgraph run patches/karplus_strong.yaml --seconds 2 --out karplus_strong.wav\n"
+               "  hapticgraph COMMAND --help        (each command's options and examples)\n\n"
+               "exit status: 0 success, 2 a patch or command-line error, 1 anything else")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for add in (_add_run, _add_play, _add_devices, _add_check, _add_blocks, _add_schema, _add_graph, _add_plot,
+                _add_modes):
+        add(sub)
+    return ap
+
+
+def _command(sub, name, help, description, examples):
+    """A subcommand whose --help has a description and examples (shown as written)."""
+    epilog = "examples:\n" + "\n".join(f"  {e}" for e in examples)
+    return sub.add_parser(name, help=help, description=textwrap.fill(description, 88), epilog=epilog,
+                          formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def _overrides(parser):
+    parser.add_argument("--set", action="append", default=[], metavar="BLOCK.PARAM=VALUE", dest="overrides",
+                        help="override a parameter (repeatable)")
+
+
+def _device_option(parser):
+    parser.add_argument("--device", action="append", default=[], metavar="NAME=DRIVER[,KEY=VALUE...]",
+                        help="choose a device's driver (simulated, hid, replay) and settings that override its "
+                             "entry's, e.g. finger=hid,profile=haptic_1dof,max_force=2 (repeatable)")
+
+
+def _add_run(sub):
+    run = _command(sub, "run", "render a patch offline to an audio file (and probes to .npz)",
+                   "Render a patch offline, as fast as the machine allows, to an audio file (the format "
+                   "follows the extension: .wav, .flac, .ogg) and, with --probe, the probed signals to "
+                   ".npz. Devices run on their drivers (the simulated device by default).",
+                   ["hapticgraph run patches/karplus_strong.yaml --seconds 2 --out karplus_strong.wav",
+                    "hapticgraph run patches/karplus_strong.yaml --out ks.flac --set damp.gain=0.99",
+                    "hapticgraph run patches/fig8_pluck_damp.yaml --probe tip.force --probe finger.x",
+                    "hapticgraph run my_string.yaml --replay take.hgrec"])
+    run.add_argument("patch")
+    run.add_argument("--seconds", type=float, default=None,
+                     help="length to render (default 2; with --replay, the take's length)")
+    run.add_argument("--out", help="audio file to write, its format chosen by the extension: .wav, .flac, "
+                                    ".ogg, .mp3, .aiff (default: the patch's name, .wav, here)")
+    run.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT",
+                     help="record a port (repeatable); a cell's port is name[i, j].port")
+    run.add_argument("--probes", metavar="FILE.npz", help="where the probes go (default: beside the WAV)")
+    _overrides(run)
+    run.add_argument("--engine", choices=("compiled", "python"), default="compiled",
+                     help="compiled numba kernel (default) or the reference interpreter")
+    _device_option(run)
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--subtype", metavar="PCM_16|PCM_24|FLOAT", type=str.upper,
+                     help="sample format of --out, in soundfile's names (default: FLOAT for WAV and "
+                          "AIFF, PCM_24 for FLAC)")
+    run.add_argument("--replay", metavar="TAKE.hgrec",
+                     help="feed every device and live input from a take made by `play --record` "
+                          "(--seconds defaults to the take's length)")
+
+
+def _add_play(sub):
+    play = _command(sub, "play", "play a patch in real time through the sound card",
+                    "Play a patch in real time: the sound card's clock drives the kernel block by block; "
+                    "devices are read on their own threads and every force sent is clamped to the "
+                    "device's max_force. Runs until Ctrl-C unless --seconds is given.",
+                    ["hapticgraph play patches/karplus_strong.yaml --seconds 2",
+                     "hapticgraph play my_string.yaml --device finger=hid,profile=haptic_1dof --blocksize 64",
+                     "hapticgraph play my_string.yaml --record take --watch",
+                     "hapticgraph play patches/cymatic_sheet.yaml --console"])
+    play.add_argument("patch")
+    play.add_argument("--audio-device", metavar="D", help="output device: index or (part of) its name "
+                      "(see `hapticgraph devices`; default: the system's default)")
+    play.add_argument("--input-device", metavar="D", help="input device for live audio_in blocks (default: the default)")
+    play.add_argument("--blocksize", type=int, default=128, metavar="N",
+                      help="frames per audio callback, the kernel's block (default 128)")
+    play.add_argument("--latency", default="low", metavar="low|high|SECONDS",
+                      help="PortAudio's suggested output latency (default low)")
+    play.add_argument("--seconds", type=float, default=None, metavar="S",
+                      help="stop after S seconds (default: play until Ctrl-C)")
+    play.add_argument("--record", metavar="TAKE", help="record the device inputs to TAKE.hgrec and the "
+                      "audio to TAKE.wav (replay with `hapticgraph run PATCH --replay TAKE.hgrec`)")
+    play.add_argument("--replay", metavar="TAKE.hgrec", help="play a recorded take back through the sound card")
+    play.add_argument("--console", action="store_true",
+                      help="read edits from standard input while playing: set BLOCK.PARAM VALUE, "
+                           "lock/unlock/cut NAME[i, j] (lattices then run on their editable CSR path)")
+    play.add_argument("--watch", action="store_true", help="reload the patch when its file changes, keeping "
+                      "the state of every block that did not change")
+    _overrides(play)
+    _device_option(play)
+    play.add_argument("--fade", type=float, default=0.005, metavar="SECONDS", help=argparse.SUPPRESS)
+
+
+def _add_devices(sub):
+    _command(sub, "devices", "list sound cards and HID devices",
+             "List the sound cards PortAudio sees (index, name, channels, rate) and the HID devices "
+             "hidapi sees (vendor:product id, name, the shipped profile that matches).",
+             ["hapticgraph devices", "hapticgraph play PATCH --audio-device 3"])
+
+
+def _add_check(sub):
+    check = _command(sub, "check", "check a patch and report every problem",
+                     "Load and check a patch without compiling or running it: every problem is printed "
+                     "as FILE:LINE: message (exit 2); a good patch prints ok and its schedule.",
+                     ["hapticgraph check patches/karplus_strong.yaml",
+                      "hapticgraph check my_string.yaml --set bridge.gain=-0.99"])
+    check.add_argument("patch")
+    _overrides(check)
+
+
+def _add_blocks(sub):
+    blocks = _command(sub, "blocks", "list the block types (built-in and plugins)",
+                      "List every block type: its input ports (* a live parameter, also an input), its "
+                      "outputs, its equation and its parameters with units and defaults.",
+                      ["hapticgraph blocks", "hapticgraph blocks --markdown > docs/blocks.md",
+                       "hapticgraph blocks --patch examples/file_plugin/saturated_string.yaml --json"])
+    blocks.add_argument("--json", action="store_true", help="machine-readable")
+    blocks.add_argument("--markdown", action="store_true", help="the block reference (docs/blocks.md)")
+    blocks.add_argument("--patch", help="also load this patch's plugins")
+
+
+def _add_schema(sub):
+    _command(sub, "schema", "print the JSON Schema of a patch (for editors)",
+             "Print the JSON Schema of a patch, assembled from every block's declarations, for an "
+             "editor's YAML support (completion and checking of block types and parameters).",
+             ["hapticgraph schema > hapticgraph.schema.json"])
+
+
+def _add_graph(sub):
+    graph = _command(sub, "graph", "export the patch graph as Graphviz dot or Mermaid",
+                     "Write the patch's blocks and connections as a Graphviz dot or Mermaid graph "
+                     "(nothing is compiled).",
+                     ["hapticgraph graph patches/karplus_strong.yaml --format mermaid",
+                      "hapticgraph graph patches/karplus_strong.yaml -o ks.dot && dot -Tpng ks.dot -o ks.png"])
+    graph.add_argument("patch")
+    graph.add_argument("--format", choices=("dot", "mermaid"), default="dot", help="default dot")
+    graph.add_argument("-o", "--out", metavar="FILE", help="write here instead of standard output")
+
+
+def _add_plot(sub):
+    plot = _command(sub, "plot", "render a patch and draw probe traces and a spectrogram to PNG",
+                    "Render a patch and draw each probe against time [s], in its quantity and unit, "
+                    "above a spectrogram (frequency [Hz]) of the audio; or, with --mode N, draw mode N "
+                    "of a lattice (numbered from 1, the lowest, as `hapticgraph modes` lists them). "
+                    "Needs matplotlib: pip install \"hapticgraph[plot]\".",
+                    ["hapticgraph plot patches/karplus_strong.yaml --probe loop.out --window 0 0.02 -o ks.png",
+                     "hapticgraph plot patches/fig8_pluck_damp.yaml --seconds 1.5 --probe finger.x "
+                     "--probe tip.force -o fig8.png",
+                     "hapticgraph plot patches/babe_is_sleeping.yaml --lattice cym_a --mode 5 -o mode.png"])
+    plot.add_argument("patch")
+    plot.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT", help="a trace to draw (repeatable)")
+    plot.add_argument("-o", "--out", required=True, metavar="FILE.png", help="the PNG to write")
+    plot.add_argument("--seconds", type=float, default=1.0, help="length to render (default 1)")
+    plot.add_argument("--window", nargs=2, type=float, metavar=("T0", "T1"), help="time window of the traces [s]")
+    plot.add_argument("--spectrogram", default="audio", metavar="audio|BLOCK.PORT|none",
+                      help="what the spectrogram shows (default: the audio)")
+    _overrides(plot)
+    plot.add_argument("--title", default=None, help="the figure's title (default: the patch's name)")
+    plot.add_argument("--mode", type=int, metavar="N",
+                      help="draw mode N of a lattice instead of rendering (1: the lowest, as `modes` "
+                           "numbers them)")
+    plot.add_argument("--lattice", metavar="NAME", help="the lattice or cell block whose mode is drawn "
+                      "(default: the first)")
+
+
+def _add_modes(sub):
+    modes = _command(sub, "modes", "predicted modal frequencies of each mass-spring network",
+                     "Predict the lowest modal frequencies of each mass-spring network (lossless, with "
+                     "the half-step scheme's discrete-time correction), numbered from 1 (the lowest), "
+                     "so an instrument can be tuned before it is heard.",
+                     ["hapticgraph modes patches/cymatic_string.yaml --count 5",
+                      "hapticgraph modes patches/babe_is_sleeping.yaml --json",
+                      "hapticgraph plot patches/babe_is_sleeping.yaml --lattice cym_a --mode 5 -o mode.png"])
+    modes.add_argument("patch")
+    modes.add_argument("--count", type=int, default=20, metavar="N", help="modes per network (default 20)")
+    modes.add_argument("--json", action="store_true", help="machine-readable")
+    _overrides(modes)

@@ -1,0 +1,190 @@
+"""`hapticgraph play` (real time through the sound card, with --record, --replay, --watch and
+--console) and `hapticgraph devices` (the sound cards and HID devices this machine sees)."""
+import signal
+import sys
+
+from .cli_common import UsageError, audio_channels, device_choices
+from .devices import DeviceError, audio, check_choices, open_drivers
+from .devices.record import Recorder
+from .devices.replay import replay_drivers
+from .graph.patch import load
+from .graph.program import PlanError
+
+
+def cmd_play(args):
+    """Real-time play: the sound card's clock drives the kernel block by block."""
+    latency = _check_options(args)
+    if args.replay and args.device:
+        raise UsageError("--replay feeds every device from the take; it takes no --device")
+    choices = device_choices(args.device)
+    if args.replay and args.watch:
+        raise UsageError("--replay and --watch do not go together")
+    patch = load(args.patch, overrides=args.overrides)
+    try:
+        check_choices(patch, choices)
+    except DeviceError as exc:
+        raise UsageError(str(exc)) from None
+    try:
+        audio.sounddevice()
+    except audio.AudioError as exc:
+        print(f"hapticgraph: error: {exc}", file=sys.stderr)
+        return 1
+    session, live, out_dev, in_dev = _open_session(args, patch, choices)
+    recorder = _open_recorder(args, patch, choices, session, live) if args.record else None
+    try:
+        player = audio.Player(session, device=out_dev, blocksize=args.blocksize, latency=latency,
+                              input_device=in_dev, seconds=args.seconds, fade=args.fade, recorder=recorder)
+    except audio.AudioError as exc:
+        if recorder is not None:
+            recorder.close()
+        raise UsageError(str(exc)) from None
+    watcher = _start_watcher(args, player, choices) if args.watch else None
+    report = _run(args, patch, player, watcher)
+    return _report(args, player, report)
+
+
+def _check_options(args):
+    """Check the numbers play takes; the latency PortAudio is asked for."""
+    if args.blocksize < 1 or args.blocksize > 1 << 15:
+        raise UsageError(f"--blocksize {args.blocksize}: expected a number of frames from 1 to 32768")
+    if args.seconds is not None and args.seconds <= 0:
+        raise UsageError("--seconds must be positive")
+    if not 0 < args.fade <= 1:
+        raise UsageError("--fade must be in (0, 1] seconds")
+    return _parse_latency(args.latency)
+
+
+def _parse_latency(text):
+    if text in ("low", "high"):
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise UsageError(f"--latency {text!r}: expected low, high or a number of seconds") from None
+    if not 0 < value <= 2:
+        raise UsageError(f"--latency {text!r}: expected a number of seconds in (0, 2]")
+    return value
+
+
+def _open_session(args, patch, choices):
+    """The drivers (the take's with --replay) and the play session; (session, live inputs,
+    output device, input device). With --replay, --seconds defaults to the take's length."""
+    try:
+        out_dev = audio.find_device(args.audio_device, "output", max(1, audio_channels(patch)))
+        if args.replay:
+            take, drivers = replay_drivers(patch, args.replay)
+            if args.seconds is None and take.frames:
+                args.seconds = take.seconds
+        else:
+            drivers = open_drivers(patch, choices, live_input=audio.LiveInput.for_block)
+        live = [d for d in drivers.values() if isinstance(d, audio.LiveInput)]
+        in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
+        session = audio.play_session(patch, drivers, args.blocksize, editable=args.console)
+    except (PlanError, DeviceError, audio.AudioError) as exc:
+        raise UsageError(str(exc)) from None
+    return session, live, out_dev, in_dev
+
+
+def _open_recorder(args, patch, choices, session, live):
+    """The Recorder of --record, each device's driver kind named in the take's header."""
+    kinds = {name: (choices[name].driver if name in choices else spec.get("driver", "simulated"))
+             for name, spec in patch.devices.items()}
+    kinds.update({d.name: "live audio input" for d in live})
+    try:
+        return Recorder(args.record, session, max(1, session.prog.channels), args.blocksize, kinds=kinds)
+    except OSError as exc:
+        session.stop()
+        raise UsageError(f"--record {args.record!r}: {exc.strerror or exc}") from None
+    except DeviceError as exc:
+        session.stop()
+        raise UsageError(str(exc)) from None
+
+
+def _start_watcher(args, player, choices):
+    """--watch: reload the patch when its files change, keeping the drivers that did not change."""
+    def make_session(old):
+        new_patch = load(args.patch, overrides=args.overrides)
+        drivers, opened, unused = audio.reload_drivers(old.prog.patch, new_patch, old.prog.drivers, choices,
+                                                       live_input=audio.LiveInput.for_block)
+        return audio.play_session(new_patch, drivers, args.blocksize, editable=args.console), opened, unused
+    return audio.Watcher(player, args.patch, make_session).start()
+
+
+def _run(args, patch, player, watcher):
+    """Play until the end (SIGTERM stops like Ctrl-C); the player's Report."""
+    def terminate(signum, frame):
+        raise KeyboardInterrupt
+    previous = signal.signal(signal.SIGTERM, terminate)
+    if args.console:
+        from .console import HELP, Console
+        Console(lambda: player.bound.session).start()
+        print(f"hapticgraph: {HELP}", file=sys.stderr)
+    until = f"for {args.seconds:g} s" if args.seconds else "until Ctrl-C"
+    print(f"hapticgraph: playing {patch.name!r} {until} on {player.device_name}", file=sys.stderr)
+    try:
+        return player.run()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        if watcher is not None:
+            watcher.stop()
+
+
+def _report(args, player, report):
+    """Print what was played and recorded, and why it stopped; the exit status."""
+    for line in report.lines(args.patch):
+        print(line)
+    if player.recorder is not None:
+        rec = player.recorder
+        print(f"  recorded {rec.rows_written} samples of device inputs to {rec.path} and "
+              f"{rec.frames} frames of audio to {rec.wav_path}"
+              + (f"; {rec.dropped} samples DROPPED (the disk was too slow)" if rec.dropped else "")
+              + (f"; inputs not recorded after a reload: {rec.inputs_stopped}" if rec.inputs_stopped else ""))
+        if rec.failed:
+            print(f"hapticgraph: error: recording stopped early: {rec.failed}; {rec.path} ({rec.rows_written} "
+                  f"samples) and {rec.wav_path} ({rec.frames} frames) keep everything written before",
+                  file=sys.stderr)
+            return 1
+    if report.problem:
+        print(f"hapticgraph: stopped after {report.seconds:.3f} s: {report.problem}; the force sent was "
+              f"zeroed in that block and the audio muted with a {1e3 * args.fade:g} ms fade", file=sys.stderr)
+        return 1
+    if report.interrupted:
+        print(f"hapticgraph: interrupted after {report.seconds:.3f} s; faded out and stopped", file=sys.stderr)
+    return 0
+
+
+def cmd_devices(args):
+    """Sound cards (PortAudio) and HID devices (hidapi)."""
+    print("Sound cards (PortAudio):")
+    try:
+        cards = audio.sound_cards()
+    except audio.AudioError as exc:
+        cards = None
+        print(f"  unavailable: {exc}")
+    if cards is not None and not cards:
+        print("  none found")
+    for c in cards or ():
+        marks = [m for m, on in (("default output", c["default_out"]), ("default input", c["default_in"])) if on]
+        print(f"  {c['index']:3d}  {c['name']}  [{c['hostapi']}]  in {c['inputs']}, out {c['outputs']}, "
+              f"{c['rate']:g} Hz{'  (' + ', '.join(marks) + ')' if marks else ''}")
+    print("HID devices (hidapi):")
+    try:
+        from .devices.hid import list_hid_devices
+        hids = list_hid_devices()
+    except (ImportError, AttributeError) as exc:
+        print(f"  unavailable: {exc}")
+        return 0
+    except Exception as exc:  # noqa: BLE001 - the listing must not crash on a busy device
+        print(f"  unavailable: {type(exc).__name__}: {exc}")
+        return 0
+    if not hids:
+        print("  none found")
+    for h in hids:
+        if isinstance(h, dict):
+            vid, pid = h.get("vendor_id", 0), h.get("product_id", 0)
+            name = " ".join(x for x in (h.get("manufacturer_string"), h.get("product_string")) if x) or "?"
+            extra = f"  profile {h['profile']}" if h.get("profile") else ""
+            print(f"  {vid:04x}:{pid:04x}  {name}  {h.get('path', b'')!s}{extra}")
+        else:
+            print(f"  {h}")
+    return 0

@@ -1,0 +1,209 @@
+"""`hapticgraph run`: render a patch offline into an audio file and a probes file. Every output
+is checked before any work (it must not overwrite a file the run reads); what was rendered is
+written whatever stops the render (a signal, a safety stop, a full disk)."""
+import inspect
+import math
+import os
+import signal
+import sys
+
+from .cli_common import UsageError, audio_channels, device_choices
+from .devices import DeviceError, open_drivers
+from .devices.files import FileSink, OutputError
+from .devices.replay import replay_drivers
+from .devices.take import take_paths
+from .devices.wav import AudioFileError
+from .graph.engine import SafetyStop, StopRequest, stream
+from .graph.errors import PatchError
+from .graph.patch import load
+from .graph.program import PlanError
+
+
+def cmd_run(args):
+    choices = device_choices(args.device)
+    _check_options(args, choices)
+    patch = load(args.patch, overrides=args.overrides)
+    replayed = _replayed(patch, args) if args.replay else None
+    if args.seconds is None:
+        args.seconds = 2.0
+    if round(args.seconds * patch.rate) < 1:
+        raise UsageError(f"--seconds {args.seconds:g} is less than one sample at {patch.rate:g} Hz")
+    sink = _open_sink(patch, args)
+    outcome = _render_under_signals(sink, patch, args, choices, replayed)
+    if outcome is None:
+        return 1
+    return _report(args, sink, *outcome)
+
+
+def _check_options(args, choices):
+    if args.seconds is not None and not (math.isfinite(args.seconds) and args.seconds > 0):
+        raise UsageError(f"--seconds {args.seconds:g}: expected a positive, finite number of seconds")
+    if args.replay and choices:
+        raise UsageError("--replay feeds every device from the take; it takes no --device")
+    if args.probes and not args.probes.lower().endswith(".npz"):
+        raise UsageError(f"--probes {args.probes!r}: the probes are written as .npz; name a FILE.npz")
+
+
+def _replayed(patch, args):
+    """The drivers of the take `--replay` names (checked against the patch); `--seconds` defaults
+    to the take's length."""
+    try:
+        take, replayed = replay_drivers(patch, args.replay)
+    except DeviceError as exc:
+        raise UsageError(str(exc)) from None
+    if args.seconds is None and take.frames:
+        args.seconds = take.seconds
+    return replayed
+
+
+def _open_sink(patch, args):
+    """The FileSink of `--out` and `--probes`, both checked first."""
+    stem = os.path.splitext(os.path.basename(args.patch))[0]
+    out = args.out or f"{stem}.wav"
+    channels = audio_channels(patch)
+    inputs = _input_files(patch, args.replay)
+    audio_path = _check_output("--out", out, inputs) if channels or args.out else None
+    probes_path = None
+    if args.probe:
+        probes_path = _check_output("--probes", args.probes or os.path.splitext(out)[0] + ".npz", inputs)
+        if audio_path and channels and _same_file(os.path.abspath(probes_path), os.path.abspath(audio_path)):
+            raise UsageError(f"--probes {probes_path!r} and --out name the same file")
+    if not channels and not args.probe:
+        print(f"hapticgraph: {args.patch} has no audio_out block and no --probe was given; nothing written",
+              file=sys.stderr)
+    try:
+        return FileSink(audio_path if channels else None, probes_path, patch.rate, channels, args.probe,
+                        subtype=args.subtype)
+    except AudioFileError as exc:
+        raise UsageError(f"--out {out!r}: {exc}") from None
+    except OSError as exc:
+        raise UsageError(f"cannot write beside {out!r}: {exc.strerror or exc}") from None
+
+
+def _render_under_signals(sink, patch, args, choices, replayed):
+    """Render into the sink and close it with SIGINT, SIGTERM and SIGHUP caught; (Streamed, safety
+    problem, output failure, files written, close errors), or None if nothing was rendered."""
+    stop = StopRequest()
+    caught = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    previous = {s: signal.signal(s, stop.request) for s in caught}
+    try:         # the handlers stay until the files are in place: a second signal loses nothing either
+        outcome = _render_to(sink, patch, args, choices, replayed, stop)
+        if outcome is None:
+            return None
+        written, errors = sink.close()
+        return (*outcome, written, errors)
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+def _report(args, sink, streamed, problem, failure, written, errors):
+    """Print what was rendered and written, and why it stopped; the exit status."""
+    rate = streamed.rate
+    seconds = streamed.samples / rate
+    where = ", ".join(path for path, _ in written) or "-"
+    print(f"{args.patch}: {seconds:g} s at {rate:g} Hz ({args.engine}; compile "
+          f"{streamed.compile_seconds:.2f} s, run {streamed.run_seconds:.2f} s), peak {sink.peak:.4g} -> {where}")
+    held = "; ".join(f"{n} samples written to {path}" for path, n in written) or "nothing written"
+    for error in errors:
+        print(f"hapticgraph: error: {error}", file=sys.stderr)
+    if failure:
+        print(f"hapticgraph: error: {failure}; {held}", file=sys.stderr)
+        return 1
+    if streamed.stopped is not None:
+        name = signal.Signals(streamed.stopped).name
+        print(f"hapticgraph: interrupted ({name}) after {seconds:.3f} s; {held}", file=sys.stderr)
+        return 1
+    if problem == "interrupted":
+        print(f"hapticgraph: interrupted after {seconds:.3f} s; {held}", file=sys.stderr)
+        return 1
+    if problem:
+        print(f"hapticgraph: stopped after {seconds:.3f} s: {problem}; the force sent was zeroed first, "
+              f"what was rendered is written ({held})", file=sys.stderr)
+        return 1
+    return 1 if errors else 0
+
+
+def _input_files(patch, replay=None):
+    """Every file a run reads: the patch, its plugin and block modules, audio_in files, takes."""
+    base = os.path.dirname(os.path.abspath(patch.file))
+    files = [patch.file]
+    plugins = patch.doc.get("plugins") if isinstance(patch.doc, dict) else None
+    files += [os.path.join(base, p) for p in plugins or () if isinstance(p, str) and p.endswith(".py")]
+    for inst in patch.blocks.values():
+        try:
+            files.append(inspect.getfile(inst.cls))
+        except (TypeError, OSError):
+            pass
+        files += _audio_file(inst, base)
+    files += [os.path.join(base, spec["file"]) for spec in patch.devices.values()
+              if isinstance(spec, dict) and isinstance(spec.get("file"), str)]
+    if replay:
+        files += [replay, *take_paths(replay)]
+    return files
+
+
+def _audio_file(inst, base):
+    """The audio file an audio_in block reads ([] for any other block)."""
+    if inst.cls.type_name == "audio_in" and inst.values.get("file"):
+        return [os.path.join(base, inst.values["file"])]
+    return []
+
+
+def _same_file(a, b):
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _check_output(option, path, inputs):
+    """Refuse, before any work, an output that would overwrite an input or cannot be written;
+    returns the path to write (a symbolic link is written through)."""
+    for used in inputs:
+        if _same_file(path, used):
+            raise UsageError(f"{option} {path!r} is a file this run reads ({os.path.basename(used)}); "
+                             f"choose another name")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise UsageError(f"{option} {path!r}: the folder {os.path.dirname(path) or '.'!r} does not exist")
+    if os.path.lexists(path):
+        if os.path.isdir(path):
+            raise UsageError(f"{option} {path!r} is a folder")
+        if not os.path.isfile(path):
+            raise UsageError(f"{option} {path!r} exists and is not a regular file (a device or a pipe)")
+        path = os.path.realpath(path)
+    if not os.access(os.path.dirname(os.path.abspath(path)), os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path!r}: the folder is not writable")
+    return path
+
+
+def _render_to(sink, patch, args, choices, replayed, stop):
+    """Stream the render into the sink; (Streamed, safety problem, output failure), or None when
+    interrupted before rendering began (the sink discarded)."""
+    try:
+        drivers = replayed if replayed is not None else open_drivers(patch, choices)
+        streamed = stream(patch, args.seconds, sink, probes=args.probe, engine=args.engine,
+                          progress=False if args.quiet else None, drivers=drivers, safety=True, stop=stop)
+        return streamed, None, None
+    except (PlanError, DeviceError) as exc:
+        sink.discard()
+        raise UsageError(str(exc)) from None
+    except PatchError:                     # found while compiling (a plugin numba cannot compile)
+        sink.discard()
+        raise
+    except KeyboardInterrupt as exc:
+        if not stop.rendering or getattr(exc, "streamed", None) is None:
+            sink.discard()
+            print("hapticgraph: interrupted before rendering began; nothing written", file=sys.stderr)
+            return None
+        return exc.streamed, "interrupted", None
+    except SafetyStop as exc:
+        return exc.streamed, str(exc), None
+    except OutputError as exc:
+        return exc.streamed, None, str(exc)
+    except BaseException:                  # a bug: keep what was made, then let main report it
+        sink.close()
+        raise
