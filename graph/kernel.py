@@ -21,6 +21,7 @@ plugin file the patch loaded.
 import hashlib
 import inspect
 import json
+import math
 import os
 import platform
 import re
@@ -30,7 +31,7 @@ import tempfile
 import time
 import types
 
-from ..blocks.core import register_helpers
+from ..blocks.core import Block, Out, Param, register_helpers
 from .errors import PatchError, Problem
 from .ir import KernelSourceError, ident
 from .program import PlanError, Program
@@ -583,17 +584,24 @@ def _culprit(cls, exc):
     return "output", inspect.getsourcefile(cls) or "?", 1
 
 
-def _feeds():
-    from ..blocks import builtin_types
-    return builtin_types()["noise"]
+class IsolationFeed(Block, name="isolation_feed"):
+    """A signal that varies every sample, fed into each connected input of a plugin block compiled
+    on its own (so its inputs and live parameters are typed as in the patch, not as constants)."""
+
+    y = Out(name="out")
+    seed = Param(1.0)
+
+    @staticmethod
+    def output(t, seed):
+        return math.sin(0.001 * t + seed)
 
 
 class _Isolated:
-    """A patch of one block (every connected input fed by a noise block), for its own compile."""
+    """A patch of one block (every connected input fed by an IsolationFeed), for its own compile."""
 
     def __init__(self, patch, inst):
         from .patch import Connection, Endpoint, Instance
-        noise = _feeds()
+        noise = IsolationFeed
         self.file, self.doc, self.name, self.rate = patch.file, patch.doc, f"check_{inst.cls.type_name}", patch.rate
         self.devices, self.registry = patch.devices, patch.registry
         self.blocks, self.connections, self.order = {}, [], []
@@ -603,7 +611,7 @@ class _Isolated:
             values = noise.default_params()
             values["seed"] = k + 1
             self.blocks[feed] = Instance(feed, noise, values, inst.line, {}, -1 - k)
-            self.connections.append(Connection(Endpoint(feed, None, "out"), Endpoint(inst.name, None, port),
+            self.connections.append(Connection(Endpoint(feed, None, noise.y.name), Endpoint(inst.name, None, port),
                                                inst.line))
             self.order.append(feed)
         self.blocks[inst.name] = inst

@@ -117,6 +117,11 @@ def _linear_groups(patch, editable=False):
             yield members, group
 
 
+def mode_blocks(patch):
+    """The blocks `mode_shape` can draw (the bodies of groups with a linear model), patch order."""
+    return [name for _, net in _linear_groups(patch) for name in net.bodies()]
+
+
 def network_modes(patch, count=20):
     """[NetworkModes] of every mass-spring network of a loaded patch, in patch order."""
     out = []

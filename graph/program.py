@@ -213,7 +213,7 @@ class Program:
 
     def output(self, bp, attr):
         """The Output node of `attr` of block bp, named after the block (`loop_out`)."""
-        return Output(bp.index, attr, self._local("out", bp, attr))
+        return Output(bp.index, attr, self._local("output", bp, attr))
 
     def derived(self, bp):
         """The name of the coefficients block bp derives every sample, and of its parameter tuple."""

@@ -137,8 +137,10 @@ def cmd_plot(args):
 
 
 def _mode_blocks(patch):
-    """The blocks whose modes `plot --mode` can draw: lattices and cells."""
-    return [n for n, b in patch.blocks.items() if b.cls.type_name in ("lattice", "cell")]
+    """The blocks whose modes `plot --mode` can draw: the bodies of fused groups with a linear
+    model (lattices and cells)."""
+    from .graph.modes import mode_blocks
+    return mode_blocks(patch)
 
 
 def _plot_mode(args, patch, plot):

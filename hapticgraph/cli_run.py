@@ -144,10 +144,9 @@ def _input_files(patch, replay=None):
 
 
 def _audio_file(inst, base):
-    """The audio file an audio_in block reads ([] for any other block)."""
-    if inst.cls.type_name == "audio_in" and inst.values.get("file"):
-        return [os.path.join(base, inst.values["file"])]
-    return []
+    """The files a block reads (its parameters that refer to a file beside the patch)."""
+    return [os.path.join(base, inst.values[n]) for n, p in inst.cls.params.items()
+            if p.refers == "file" and inst.values.get(n)]
 
 
 def _same_file(a, b):
