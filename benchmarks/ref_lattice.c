@@ -14,7 +14,8 @@
 
    usage: ref_lattice N0[xN1[xN2]] MASS TENSION DAMPING RATE SAMPLES EXC MIC AT WIDTH FORCE OUT.wav [DUMP.f64]
    EXC and MIC are row-major cell indices; DUMP gets the output as doubles. It prints
-   `loop_seconds` (the sample loop alone, output buffer prefaulted, CLOCK_MONOTONIC).
+   `loop_seconds` (the sample loop alone, output buffer prefaulted, CLOCK_MONOTONIC) and, on
+   Linux, `peak_rss_kib` (VmHWM: the process's peak resident set).
    Build: gcc -O3 -march=native ref_lattice.c -o ref_lattice -lm */
 #include <math.h>
 #include <stdint.h>
@@ -115,5 +116,12 @@ int main(int argc, char **argv)
         fclose(fp);
     }
     printf("loop_seconds %.9f\n", loop);
+    FILE *status = fopen("/proc/self/status", "r");      /* peak resident set, for scale.py */
+    char line[256];
+    while (status && fgets(line, sizeof line, status))
+        if (!strncmp(line, "VmHWM:", 6))
+            printf("peak_rss_kib %ld\n", atol(line + 6));
+    if (status)
+        fclose(status);
     return 0;
 }

@@ -15,7 +15,8 @@ Each size is a uniform lattice (the parameters of run_all.py's lattice rows: fix
   process start to exit (so small lattices show the process's fixed cost);
 - C: benchmarks/ref_lattice.c's sample loop (-O3 -march=native), timed inside the program.
 Memory per cell: (peak RSS of a whole-run child for the lattice − peak RSS of the same child for a
-10-cell lattice) / cells, both rendering 100 samples; for the C reference likewise.
+10-cell lattice) / cells, both rendering 100 samples; for the C reference likewise, from the VmHWM
+it prints (a child's ru_maxrss counts its parent's memory at fork, before exec).
 Real time: samples/s of the kernel ≥ REALTIME_MARGIN × 44,100 (the audio callback may use at
 most half of each period: the issue's p99 load goal), interpolated log-log between sizes.
 The first size of each dimension is checked against the C reference (run_all.py's agreement).
@@ -68,14 +69,36 @@ def write_patch(folder, shape):
     return path, flat(exc_idx), flat(mic_idx)
 
 
+# A small parent that forks and execs the command: a child's ru_maxrss counts the memory it had
+# at fork time (the parent's copy, before exec), so the child must not be forked from this
+# process (hundreds of MB with numba loaded). The wrapper's own few MB cancel in the baseline.
+WRAPPER = """import os, sys
+pid = os.fork()
+if pid == 0:
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.dup2(null, 2)
+    os.execvp(sys.argv[1], sys.argv[1:])
+_, status, usage = os.wait4(pid, 0)
+print(usage.ru_maxrss if os.waitstatus_to_exitcode(status) == 0 else -1)
+"""
+
+
 def peak_rss(cmd, env):
-    """Peak resident set of a child process, bytes (ru_maxrss of that child alone, via wait4)."""
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        sys.exit(f"scale: {' '.join(map(str, cmd))} failed ({proc.returncode})")
-    return usage.ru_maxrss * 1024
+    """Peak resident set of a child process, bytes (ru_maxrss via wait4 in a small wrapper)."""
+    proc = subprocess.run([sys.executable, "-c", WRAPPER, *map(str, cmd)], env=env, capture_output=True,
+                          text=True, check=True)
+    kib = int(proc.stdout.split()[-1])
+    if kib < 0:
+        sys.exit(f"scale: {' '.join(map(str, cmd))} failed")
+    return kib * 1024
+
+
+def c_peak(cmd, env):
+    """The C reference's own peak resident set (VmHWM, which it prints), bytes: small enough that
+    a wrapper's memory at fork would hide it."""
+    out = run_all.timed(cmd, env)[1]
+    return next(int(line.split()[1]) for line in out.splitlines() if line.startswith("peak_rss_kib")) * 1024
 
 
 def commands(exe, folder, shape, samples):
@@ -106,7 +129,7 @@ def measure_size(args, exe, folder, env, dim, shape):
         _, hg_0, c_0 = commands(exe, folder, [10], 100)
         run_all.timed(hg_0, env)                                                      # its kernel, cached
         row["hg_bytes"] = (peak_rss(hg_m, env) - peak_rss(hg_0, env)) / cells
-        row["c_bytes"] = (peak_rss(c_m, env) - peak_rss(c_0, env)) / cells
+        row["c_bytes"] = (c_peak(c_m, env) - c_peak(c_0, env)) / cells
     print(f"  {dim} {'x'.join(map(str, shape)):>13} {cells:8d} cells: kernel {row['kernel']:10.0f}, whole "
           f"{row['whole']:10.0f}, C {row['c']:10.0f} samples/s", file=sys.stderr, flush=True)
     return row
