@@ -58,9 +58,11 @@ class Family:
         return []
 
     @classmethod
-    def check(cls, members, problems, declared, rate):
-        """Family-wide checks of all the patch's members (a dict name -> instance): references,
-        sizes, stability. `declared`: every block name of the patch (also those with problems)."""
+    def check(cls, blocks, problems, declared, rate):
+        """Family-wide checks (references, sizes, stability) of the family's members among
+        `blocks` (every block of the patch without a problem of its own, name -> instance, so a
+        reference to a block of another kind can be named). `declared`: every block name of the
+        patch (also those with problems)."""
 
     @classmethod
     def point_problem(cls, inst, index, port, role):

@@ -556,12 +556,12 @@ class MassSpring(Family):
         return [(inst.values[k].split("[")[0].strip(), inst.values[k].strip()) for k in ("a", "b")]
 
     @classmethod
-    def check(cls, members, problems, declared, rate):
+    def check(cls, blocks, problems, declared, rate):
         before = len(problems.problems)
-        check_springs(members, problems, declared)
-        check_cells(members, problems)      # before anything sized by the cells is built
+        check_springs(blocks, problems, declared)
+        check_cells(blocks, problems)      # before anything sized by the cells is built
         if len(problems.problems) == before:
-            check_stability(members, rate, problems)
+            check_stability(blocks, rate, problems)
 
     @classmethod
     def point_problem(cls, inst, index, port, role):

@@ -71,3 +71,16 @@ class Collector:
     def raise_if_any(self):
         if self.problems:
             raise PatchError(self.problems, self.summary())
+
+
+def _suggest(word, choices):
+    """' (did you mean X?)' for the closest of choices, or ''."""
+    import difflib
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _names(names, most=20):
+    names = list(names)
+    shown = ", ".join(names[:most])
+    return shown + (f", … ({len(names) - most} more)" if len(names) > most else "") if names else "none"

@@ -35,7 +35,7 @@ def groups(blocks):
 
 def check_families(blocks, problems, declared, rate):
     for family in families(blocks):
-        family.check(members(blocks, family), problems, declared, rate)
+        family.check(blocks, problems, declared, rate)
 
 
 def kernel_cost(blocks):

@@ -3,18 +3,20 @@
 Every problem found is collected and raised together as one PatchError, so `hapticgraph check`
 reports all of them at once.
 """
-import difflib
 import os
 import re
 
 import jsonschema
 
-from .errors import Collector, PatchError
+from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
 from .family import check_families, kernel_cost
+from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
+from .validate import _check_schema
+from .wiring import _connections
 from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
-from .schema import INDEX, patch_schema
-from .source import LDict, LList, line_of, load_yaml, parse_value
+from .schema import INDEX
+from .source import LDict, LList, load_yaml, parse_value
 
 DEFAULT_RATE = 44100.0
 # the most blocks one kernel holds (a fused mass-spring network counts as one): numba's memory
@@ -116,19 +118,7 @@ def load(path, overrides=(), registry=None, drivers=None):
     `drivers` (driver kinds, see hapticgraph.graph.registry) replaces the registry's: the device
     drivers the patch's `devices:` entries may name."""
     path = os.fspath(path)
-    doc, problems = load_yaml(path)
-    if doc is None:
-        problems.raise_if_any()
-    if not isinstance(doc, LDict):
-        problems.add(getattr(doc, "line", 1), "a patch is a mapping with keys hapticgraph: 1, blocks: and connect:")
-        problems.raise_if_any()
-    if doc.get("hapticgraph") != 1:
-        where = doc.lines.get("hapticgraph", 1)
-        problems.add(where, "the first key must be `hapticgraph: 1` (the patch format version)"
-                     if "hapticgraph" not in doc else
-                     f"unsupported patch format version {doc['hapticgraph']!r}; this hapticgraph reads version 1")
-        problems.raise_if_any()
-
+    doc, problems = _read_document(path)
     if registry is None:
         registry = Registry(drivers=drivers)
     elif drivers is not None:
@@ -146,6 +136,34 @@ def load(path, overrides=(), registry=None, drivers=None):
     _stop_if_full(problems)
     connections = _connections(doc, blocks, problems)
     _stop_if_full(problems)
+    devices = _check_whole(doc, blocks, rate, problems)
+    order = schedule(blocks, connections, problems)
+    problems.raise_if_any()
+    name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
+    return Patch(path, doc, name, rate, blocks, connections, devices, order, registry)
+
+
+def _read_document(path):
+    """The patch's YAML document (an LDict) and its problem collector; PatchError unless it is a
+    mapping of format version 1."""
+    doc, problems = load_yaml(path)
+    if doc is None:
+        problems.raise_if_any()
+    if not isinstance(doc, LDict):
+        problems.add(getattr(doc, "line", 1), "a patch is a mapping with keys hapticgraph: 1, blocks: and connect:")
+        problems.raise_if_any()
+    if doc.get("hapticgraph") != 1:
+        where = doc.lines.get("hapticgraph", 1)
+        problems.add(where, "the first key must be `hapticgraph: 1` (the patch format version)"
+                     if "hapticgraph" not in doc else
+                     f"unsupported patch format version {doc['hapticgraph']!r}; this hapticgraph reads version 1")
+        problems.raise_if_any()
+    return doc, problems
+
+
+def _check_whole(doc, blocks, rate, problems):
+    """What needs every block at once: the families' checks, one audio sink, the devices, the size
+    of the kernel. The devices section (an LDict)."""
     declared = set(doc["blocks"]) if isinstance(doc.get("blocks"), LDict) else set()
     check_families(blocks, problems, declared, rate)
     audio = [b for b in blocks.values() if getattr(b.cls, "audio_sink", False)]
@@ -153,19 +171,16 @@ def load(path, overrides=(), registry=None, drivers=None):
         problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
                                  f"(the first is {audio[0].name!r})")
     devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
-    _check_devices(devices, blocks, problems)
+    _check_bound_blocks(devices, blocks, problems)
     _stop_if_full(problems)
     items = kernel_cost(blocks)
     if items > MAX_BLOCKS:
         problems.add(doc.lines.get("blocks", 1),
-                     f"the patch has {items:,} blocks to compile (a mass-spring network counts as one); "
+                     f"the patch has {items:,} blocks to compile (a fused group counts as one); "
                      f"one kernel holds at most {MAX_BLOCKS:,}: compiling more takes more memory than "
                      "hapticgraph allows (docs/limits.md)")
         problems.raise_if_any()
-    order = schedule(blocks, connections, problems)
-    problems.raise_if_any()
-    name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
-    return Patch(path, doc, name, rate, blocks, connections, devices, order, registry)
+    return devices
 
 
 def _stop_if_full(problems):
@@ -194,12 +209,6 @@ def _load_plugins(doc, registry, base, problems):
             registry.load_plugin(spec, base)
         except RegistryError as exc:
             problems.add(line, str(exc))
-
-
-def _names(names, most=20):
-    names = list(names)
-    shown = ", ".join(names[:most])
-    return shown + (f", … ({len(names) - most} more)" if len(names) > most else "") if names else "none"
 
 
 def _apply_overrides(doc, overrides, registry, problems):
@@ -233,95 +242,6 @@ def _apply_overrides(doc, overrides, registry, problems):
         if ok:
             entry[param] = value
             entry.lines[param] = line
-
-
-def _suggest(word, choices):
-    close = difflib.get_close_matches(word, list(choices), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
-def _check_schema(doc, registry, problems):
-    blocks = doc.get("blocks")
-    skip_blocks = set()
-    if isinstance(blocks, LDict):
-        for name, spec in blocks.items():
-            if problems.full:
-                return
-            line = blocks.lines[name]
-            if not isinstance(spec, LDict):
-                continue
-            kind = spec.get("type")
-            if kind is None:
-                problems.add(line, f"block {name!r}: no `type` (one of: {', '.join(sorted(registry.types))})")
-                skip_blocks.add(name)
-            elif kind not in registry.types:
-                problems.add(spec.lines.get("type", line),
-                             f"block {name!r}: unknown type {kind!r}{_suggest(str(kind), registry.types)}")
-                skip_blocks.add(name)
-            else:
-                cls = registry.types[kind]
-                for key in spec:
-                    if key != "type" and (key not in cls.params or cls.params[key].internal):
-                        public = [n for n, p in cls.params.items() if not p.internal]
-                        problems.add(spec.lines[key],
-                                     f"block {name!r} ({kind}): unknown parameter {key!r}"
-                                     f"{_suggest(key, public)}")
-    validator = jsonschema.Draft202012Validator(patch_schema(registry))
-    for err in validator.iter_errors(doc):
-        if problems.full:
-            return
-        path = list(err.absolute_path)
-        if len(path) >= 2 and path[0] == "blocks" and path[1] in skip_blocks:
-            continue
-        if err.validator == "additionalProperties" and len(path) == 2 and path[0] == "blocks":
-            continue  # unknown parameters, reported above with a suggestion
-        if err.validator in ("if", "allOf"):
-            continue
-        if len(path) == 3 and path[0] == "devices" and path[2] == "driver":
-            continue  # an unknown driver, reported by _check_drivers with a suggestion
-        problems.add(line_of(doc, path), _describe(err, path, doc, registry))
-
-
-def _describe(err, path, doc, registry):
-    what, unit = "patch", ""
-    if path and path[0] == "blocks" and len(path) >= 2:
-        spec = doc["blocks"].get(path[1])
-        kind = spec.get("type") if isinstance(spec, dict) else None
-        what = f"block {path[1]!r}" + (f" ({kind})" if kind else "")
-        if len(path) >= 3:
-            what += f": parameter {path[2]!r}"
-            rest = "".join(f"[{s}]" if isinstance(s, int) else f".{s}" for s in path[3:])
-            if rest:
-                what += f" {rest.lstrip('.')}"
-            cls = registry.types.get(kind)
-            unit = cls.params[path[2]].unit if cls and path[2] in cls.params else ""
-    elif path and path[0] == "connect":
-        what = f"connection {err.instance!r}" if isinstance(err.instance, str) else "connect"
-    elif path:
-        what = ".".join(str(p) for p in path)
-    v, s = err.instance, err.validator_value
-    unit = f" {unit}" if unit else ""
-    messages = {
-        "minimum": lambda: f"{v!r} is below the minimum {s!r}{unit}",
-        "maximum": lambda: f"{v!r} is above the maximum {s!r}{unit}",
-        "exclusiveMinimum": lambda: f"{v!r} must be greater than {s!r}{unit}",
-        "exclusiveMaximum": lambda: f"{v!r} must be less than {s!r}{unit}",
-        "type": lambda: f"{v!r} is not {'an' if s[0] in 'aeiou' else 'a'} {s}",
-        "enum": lambda: f"{v!r} is not one of {', '.join(map(repr, s))}",
-        "const": lambda: f"{v!r} must be {s!r}",
-        "minItems": lambda: f"needs at least {s} item(s), has {len(v)}",
-        "maxItems": lambda: f"takes at most {s} item(s), has {len(v)}",
-        "pattern": lambda: (_connection_problem(v) if path and path[0] == "connect"
-                            else f"{v!r} is not a valid name"),
-        "required": lambda: f"missing {', '.join(repr(r) for r in s if r not in v)}",
-        "additionalProperties": lambda: f"unknown key(s) {', '.join(repr(k) for k in v if k not in err.schema.get('properties', {}))}",
-        "minLength": lambda: "must not be empty",
-    }
-    make = messages.get(err.validator)
-    text = make() if make else err.message
-    if err.validator == "pattern" and path and path[0] == "connect":
-        return text
-    return f"{what}: {text}"
 
 
 def _connection_problem(text):
@@ -379,136 +299,12 @@ def _instances(doc, registry, rate, problems):
     return out
 
 
-def driver_of(spec, drivers):
-    """The driver kind of a device entry: its `driver:`, else the default kind; None if unknown."""
-    name = spec.get("driver") if isinstance(spec, dict) else None
-    if name is None:
-        return next((k for k in drivers.values() if k.default), None)
-    return drivers.get(name) if isinstance(name, str) else None
-
-
-def device_axes(devices, name, drivers):
-    """A device's extra axes and buttons, as its driver kind reads them from its entry."""
-    spec = devices.get(name) if isinstance(devices, dict) else None
-    kind = driver_of(spec, drivers) if isinstance(spec, dict) else None
-    return list(kind.axes(spec)) if kind is not None else []
-
-
-def _check_drivers(devices, drivers, base, problems):
-    """Each device entry names a known driver (or there is a default one), which checks the rest."""
-    if not isinstance(devices, LDict):
-        return
-    for name, spec in devices.items():
-        if not isinstance(spec, LDict):
-            continue
-        kind = driver_of(spec, drivers)
-        if kind is None:
-            given = spec.get("driver")
-            known = ", ".join(sorted(drivers)) or "none (the loader was given no driver table)"
-            what = (f"unknown driver {given!r}{_suggest(str(given), drivers)}" if given is not None
-                    else "no driver given, and there is no default one")
-            problems.add(spec.lines.get("driver", spec.line), f"device {name!r}: {what}; the drivers are: {known}")
-            continue
-        kind.check(name, spec, base, problems)
-
-
-def _check_devices(devices, blocks, problems):
-    """Every device reference names a declared device, once."""
-    users = {}
-    for inst in blocks.values():
-        for pname, param in inst.cls.params.items():
-            if param.refers != "devices":
-                continue
-            value = inst.values[pname]
-            line = inst.line_of(pname)
-            if not value:
-                problems.add(line, f"block {inst.name!r} ({inst.cls.type_name}): parameter {pname!r}: "
-                                   f"name the device (one of: {', '.join(devices) or 'none declared under devices:'})")
-            elif value not in devices:
-                problems.add(line, f"block {inst.name!r} ({inst.cls.type_name}): parameter {pname!r}: "
-                                   f"no device named {value!r} under devices:{_suggest(value, devices)}")
-            elif value in users:
-                problems.add(line, f"block {inst.name!r}: device {value!r} is already bound to block {users[value]!r}")
-            else:
-                users[value] = inst.name
-
-
 def _valid(param, value):
     try:
         jsonschema.validate(value, param.schema())
         return True
     except jsonschema.ValidationError:
         return False
-
-
-def _connections(doc, blocks, problems):
-    conns = doc.get("connect")
-    out = []
-    if not isinstance(conns, LList):
-        return out
-    names = doc.get("blocks") if isinstance(doc.get("blocks"), LDict) else {}
-    for text, line in zip(conns, conns.lines):
-        if problems.full:
-            break
-        if not isinstance(text, str) or "->" not in text:
-            continue  # reported by the schema
-        left, _, right = text.partition("->")
-        src, dst = Endpoint.parse(left), Endpoint.parse(right)
-        if src is None or dst is None:
-            continue  # reported by the schema (its pattern), with the reason
-        ok = True
-        for end, role in ((src, "output"), (dst, "input")):
-            if end.block not in names:
-                problems.add(line, f"connection {text.strip()!r}: no block named {end.block!r}"
-                                   f"{_suggest(end.block, names)}")
-                ok = False
-                continue
-            inst = blocks.get(end.block)
-            if inst is None:
-                ok = False  # the block itself has a problem, reported already
-                continue
-            if not _check_endpoint(inst, end, role, text.strip(), line, problems):
-                ok = False
-        if ok:
-            out.append(Connection(src, dst, line))
-    return out
-
-
-def _check_endpoint(inst, end, role, text, line, problems):
-    cls = inst.cls
-    family = getattr(cls, "family", None)
-    if end.index is not None:
-        where = f"{inst.name}[{', '.join(map(str, end.index))}]"
-        if family is None or getattr(cls, "check_cell", None) is None:
-            problems.add(line, f"connection {text!r}: block {inst.name!r} ({cls.type_name}) has no cells "
-                               f"to index with [{', '.join(map(str, end.index))}]")
-            return False
-        message = family.point_problem(inst, end.index, end.port, role)
-        if message:
-            problems.add(line, f"connection {text!r}: {where}: {message}")
-            return False
-        return True
-    found = inst.output(end.port) if role == "output" else inst.input(end.port)
-    if found is not None:
-        return True
-    if family is not None and end.port in family.point_ports:
-        problems.add(line, f"connection {text!r}: {inst.name!r} is a {cls.type_name}; address one of its cells "
-                           f"as {inst.name}[i, ...].{end.port}")
-        return False
-    other = inst.input(end.port) if role == "output" else inst.output(end.port)
-    ports = [p.name for p in (inst.outputs if role == "output" else inst.inputs)]
-    if role == "input":
-        ports += [n for n, p in cls.params.items() if p.live]
-    if other is not None:
-        msg = f"{end.port!r} of block {inst.name!r} ({cls.type_name}) is an {'input' if role == 'output' else 'output'}, " \
-              f"it cannot be the {'source' if role == 'output' else 'destination'} of a connection"
-    elif role == "input" and end.port in cls.params:
-        msg = f"parameter {end.port!r} of block {inst.name!r} ({cls.type_name}) is not live, so it is not an input"
-    else:
-        msg = (f"block {inst.name!r} ({cls.type_name}) has no {role} {end.port!r}"
-               f"{_suggest(end.port, ports)}; its {role}s: {', '.join(ports) or 'none'}")
-    problems.add(line, f"connection {text!r}: {msg}")
-    return False
 
 
 __all__ = ["load", "Patch", "Instance", "Connection", "Endpoint", "PatchError", "Collector"]

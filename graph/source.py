@@ -294,6 +294,11 @@ class _Composer:
             out[key] = value
             out.lines[key] = key_line
         self.events.get_event()
+        self.merge(out, merges)
+        return out, cost, height
+
+    def merge(self, out, merges):
+        """Merge keys (<<): explicit keys win, then the earlier source."""
         for merge_line, source in merges:
             sources = source if isinstance(source, LList) else [source]
             for item in sources:
@@ -303,10 +308,9 @@ class _Composer:
                     self.add(merge_line, "a merge key (<<) needs a mapping or a list of mappings")
                     continue
                 for k, v in item.items():
-                    if k not in out:       # explicit keys win, then the earlier source
+                    if k not in out:
                         out[k] = v
                         out.lines[k] = item.lines.get(k, merge_line)
-        return out, cost, height
 
     def scalar(self, ev, line):
         text = ev.value

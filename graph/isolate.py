@@ -1,0 +1,147 @@
+"""Plugin blocks, each compiled on its own, so that a block numba cannot compile is reported at its
+plugin's file and line (`block 'NAME' (TYPE): numba cannot compile output(): <reason>`), not as
+numba's view of the whole kernel."""
+import inspect
+import math
+import os
+import re
+import sys
+
+from ..blocks.core import Block, Out, Param
+from .errors import Problem
+from .ir import KernelSourceError
+from .kernel import CompiledKernel, note
+from .program import PlanError, Program
+
+
+def _is_numba_error(exc):
+    try:
+        from numba.core.errors import NumbaError
+    except ImportError:
+        return False
+    return isinstance(exc, NumbaError)
+
+
+def _reason(exc, limit=2):
+    """numba's reason in at most `limit` short lines (its headers, source excerpts and
+    'During: ...' context dropped)."""
+    lines = []
+    for raw in re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).splitlines():
+        line = raw.strip()
+        if not line or line.startswith(("Failed in ", "File \"", "During:", "- Resolution", "^",
+                                         "This error may have", "Enable logging")):
+            if lines and line.startswith(("File \"", "During:")):
+                break
+            continue
+        if line.startswith(("No implementation of function", "Invalid use of")) and lines:
+            continue
+        lines.append(line[:160])
+        if len(lines) >= limit:
+            break
+    return " ".join(lines) or type(exc).__name__
+
+
+def _culprit(cls, exc):
+    """(function name, file, line) of the block function numba's message points into."""
+    text = str(exc)
+    candidates = []
+    for which in ("derive", "output", "update"):
+        fn = getattr(cls, which)
+        if fn is None:
+            continue
+        try:
+            lines, first = inspect.getsourcelines(fn)
+            path = inspect.getsourcefile(fn)
+        except (OSError, TypeError):
+            continue
+        candidates.append((which, path, first, first + len(lines) - 1))
+    hits = [(m.group(1), int(m.group(2))) for m in re.finditer(r'File "([^"]+)", line (\d+)', text)]
+    hits += [(m.group(1), int(m.group(2))) for m in re.finditer(r" at (\S+\.py) \((\d+)\)", text)]
+    for file, line in hits:
+        for which, path, lo, hi in candidates:
+            if lo <= line <= hi and os.path.basename(file) == os.path.basename(path):
+                return which, path, line
+    if candidates:
+        which, path, lo, _ = next((c for c in candidates if c[0] == "output"), candidates[0])
+        return which, path, lo
+    return "output", inspect.getsourcefile(cls) or "?", 1
+
+
+class IsolationFeed(Block, name="isolation_feed"):
+    """A signal that varies every sample, fed into each connected input of a plugin block compiled
+    on its own (so its inputs and live parameters are typed as in the patch, not as constants)."""
+
+    y = Out(name="out")
+    seed = Param(1.0)
+
+    @staticmethod
+    def output(t, seed):
+        return math.sin(0.001 * t + seed)
+
+
+class _Isolated:
+    """A patch of one block (every connected input fed by an IsolationFeed), for its own compile."""
+
+    def __init__(self, patch, inst):
+        from .patch import Connection, Endpoint, Instance
+        noise = IsolationFeed
+        self.file, self.doc, self.name, self.rate = patch.file, patch.doc, f"check_{inst.cls.type_name}", patch.rate
+        self.devices, self.registry = patch.devices, patch.registry
+        self.blocks, self.connections, self.order = {}, [], []
+        fed = sorted({c.dst.port for c in patch.connections if c.dst.block == inst.name and c.dst.index is None})
+        for k, port in enumerate(fed):
+            feed = f"feed{k}"
+            values = noise.default_params()
+            values["seed"] = k + 1
+            self.blocks[feed] = Instance(feed, noise, values, inst.line, {}, -1 - k)
+            self.connections.append(Connection(Endpoint(feed, None, noise.y.name), Endpoint(inst.name, None, port),
+                                               inst.line))
+            self.order.append(feed)
+        self.blocks[inst.name] = inst
+        self.order.append(inst.name)
+
+
+def plugin_blocks(patch):
+    """(instance, plugin file) of every block whose type a plugin defines."""
+    origin = patch.registry.origin
+    out = []
+    for inst in patch.blocks.values():
+        if origin.get(inst.cls.type_name, "built-in") == "built-in":
+            continue
+        out.append((inst, inspect.getsourcefile(inst.cls) or getattr(sys.modules.get(inst.cls.__module__),
+                                                                      "__file__", "?")))
+    return out
+
+
+def plugin_problems(patch):
+    """Compile every plugin block of the patch on its own, with the patch's parameter values.
+
+    A block that numba cannot compile is a Problem at its plugin's file and line:
+    `block 'NAME' (TYPE): numba cannot compile output(): <reason>`.
+    """
+    problems, done = [], set()
+    for inst, file in plugin_blocks(patch):
+        sig = (inst.cls, repr(sorted((k, repr(v)) for k, v in inst.values.items())))
+        if sig in done:
+            continue
+        done.add(sig)
+        try:
+            prog = Program(_Isolated(patch, inst))
+        except (PlanError, KeyError, ValueError):
+            continue         # bound to a device or a network: only the whole patch can compile it
+        try:
+            CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})", diagnose=False)
+        except KernelSourceError as exc:
+            try:
+                line = inspect.getsourcelines(inst.cls)[1]
+            except (OSError, TypeError):
+                line = 1
+            problems.append(Problem(file, line,
+                                    f"block {inst.name!r} ({inst.cls.type_name}): {exc}"))
+        except Exception as exc:  # noqa: BLE001 - numba's errors have no one base class
+            if not _is_numba_error(exc):
+                raise
+            which, path, line = _culprit(inst.cls, exc)
+            problems.append(Problem(path, line, f"block {inst.name!r} ({inst.cls.type_name}): numba cannot "
+                                                f"compile {which}(): {_reason(exc)}"))
+    return problems
