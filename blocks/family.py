@@ -66,8 +66,19 @@ class Family:
 
     @classmethod
     def point_problem(cls, inst, index, port, role):
-        """What is wrong with `NAME[index].port` used as an `role` ('input'/'output'), or None."""
-        return f"block {inst.name!r} has no points"
+        """What is wrong with `NAME[index].port` used as an `role` ('input', 'output', or
+        'probe': only read), or None. By default: the port, then `index_problem`."""
+        ports = cls.point_ports
+        if port not in ports:
+            return f"a point has no port {port!r}; its ports: {', '.join(f'{p} ({r})' for p, r in ports.items())}"
+        if role != "probe" and ports[port] != role:
+            return f"{port!r} is an {ports[port]}, it cannot be the {'source' if role == 'output' else 'destination'}"
+        return cls.index_problem(inst, index)
+
+    @classmethod
+    def index_problem(cls, inst, index):
+        """What is wrong with point `index` of member `inst`, or None."""
+        return f"block {inst.name!r} ({inst.cls.type_name}) has no points to index"
 
     @classmethod
     def cost(cls, members):

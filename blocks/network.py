@@ -567,7 +567,7 @@ class MassSpring(Family):
     def point_problem(cls, inst, index, port, role):
         check_cell = getattr(inst.cls, "check_cell", None)
         if check_cell is None:
-            return f"block {inst.name!r} ({inst.cls.type_name}) is one cell: write it without an index"
+            return f"block {inst.name!r} ({inst.cls.type_name}) has no cells to index with {list(index)}"
         return check_cell(inst.values, index, port, role)
 
     @classmethod

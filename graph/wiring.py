@@ -44,7 +44,7 @@ def _check_endpoint(inst, end, role, text, line, problems):
     family = getattr(cls, "family", None)
     if end.index is not None:
         where = f"{inst.name}[{', '.join(map(str, end.index))}]"
-        if family is None or getattr(cls, "check_cell", None) is None:
+        if family is None:
             problems.add(line, f"connection {text!r}: block {inst.name!r} ({cls.type_name}) has no cells "
                                f"to index with [{', '.join(map(str, end.index))}]")
             return False
