@@ -136,8 +136,14 @@ def network_step(pos, vel, frc, inv_m, damp, anchor, cid, rowptr, col, kr, jrow,
 
 
 @helper
-def string_step(pos, vel, frc, inv_mass, tension, damping, dt, fixed):
-    """The 1-D stencil of a uniform lattice (no locks, cuts, overrides or joins)."""
+def string_step(pos, vel, frc, drv, inv_mass, tension, damping, dt, fixed):
+    """The 1-D stencil of a uniform lattice (no locks, cuts, overrides or joins).
+
+    Forces wired into cells are added into frc at the points drv (sorted) before the step. The
+    bulk loop never touches frc: a driven interior cell's new velocity (with its force) is
+    computed first into frc, the bulk loop then runs over every cell, and the driven cells take
+    their velocity back from frc (which is cleared). The ends read frc anyway.
+    """
     n = pos.shape[0]
     w = dt * inv_mass
     end = tension if fixed else 0.0
@@ -145,14 +151,22 @@ def string_step(pos, vel, frc, inv_mass, tension, damping, dt, fixed):
         vel[0] += w * (frc[0] - 2.0 * end * pos[0] - damping * vel[0])
         frc[0] = 0.0
     else:
+        for k in range(drv.shape[0]):
+            i = drv[k]
+            if 0 < i < n - 1:
+                frc[i] = vel[i] + w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) + frc[i] - damping * vel[i])
         vel[0] += w * (tension * (pos[1] - pos[0]) - end * pos[0] + frc[0] - damping * vel[0])
         frc[0] = 0.0
         for i in range(1, n - 1):
-            vel[i] += w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) + frc[i] - damping * vel[i])
-            frc[i] = 0.0
+            vel[i] += w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) - damping * vel[i])
         vel[n - 1] += w * (tension * (pos[n - 2] - pos[n - 1]) - end * pos[n - 1] + frc[n - 1]
                            - damping * vel[n - 1])
         frc[n - 1] = 0.0
+        for k in range(drv.shape[0]):
+            i = drv[k]
+            if 0 < i < n - 1:
+                vel[i] = frc[i]
+                frc[i] = 0.0
     for i in range(n):
         pos[i] += dt * vel[i]
 
@@ -184,13 +198,33 @@ def _sheet_cell(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed):
 
 
 @helper
-def sheet_step(pos, vel, frc, rows, cols, inv_mass, tension, damping, dt, fixed):
+def _sheet_driven(pos, vel, frc, drv, rows, cols, w, tension, damping, before):
+    """The driven interior cells of a sheet: `before` the bulk loop, each one's new velocity (its
+    force included, the interior's arithmetic) into frc; after it, back into vel, frc cleared."""
+    for k in range(drv.shape[0]):
+        i = drv[k]
+        r, c = i // cols, i % cols
+        if r < 1 or r > rows - 2 or c < 1 or c > cols - 2:
+            continue                       # an edge cell reads its force anyway
+        if before:
+            xi = pos[i]
+            f = (pos[i - cols] - xi) + (pos[i + cols] - xi) + (pos[i - 1] - xi) + (pos[i + 1] - xi)
+            frc[i] = vel[i] + w * (tension * f + frc[i] - damping * vel[i])
+        else:
+            vel[i] = frc[i]
+            frc[i] = 0.0
+
+
+@helper
+def sheet_step(pos, vel, frc, drv, rows, cols, inv_mass, tension, damping, dt, fixed):
     """The 2-D stencil of a uniform rows × cols lattice, row-major.
 
-    The edges are peeled off the interior, whose loop has no tests (so LLVM vectorises it); the
+    The edges are peeled off the interior, whose loop has no tests (so LLVM vectorises it) and
+    never touches frc (the driven cells at drv go through frc, as in string_step); the
     neighbours are summed in the same order everywhere (up, down, left, right), as before.
     """
     w = dt * inv_mass
+    _sheet_driven(pos, vel, frc, drv, rows, cols, w, tension, damping, True)
     for r in range(rows):
         if r == 0 or r == rows - 1:
             for c in range(cols):
@@ -199,13 +233,13 @@ def sheet_step(pos, vel, frc, rows, cols, inv_mass, tension, damping, dt, fixed)
         _sheet_cell(pos, vel, frc, r, 0, rows, cols, w, tension, damping, fixed)
         # row views indexed from 1: no index can be negative, so no wraparound test per access
         up, mid, down = pos[(r - 1) * cols:r * cols], pos[r * cols:(r + 1) * cols], pos[(r + 1) * cols:(r + 2) * cols]
-        v, fr = vel[r * cols:(r + 1) * cols], frc[r * cols:(r + 1) * cols]
+        v = vel[r * cols:(r + 1) * cols]
         for c in range(1, cols - 1):
             xi = mid[c]
             f = (up[c] - xi) + (down[c] - xi) + (mid[c - 1] - xi) + (mid[c + 1] - xi)
-            v[c] += w * (tension * f + fr[c] - damping * v[c])
-            fr[c] = 0.0
+            v[c] += w * (tension * f - damping * v[c])
         if cols > 1:
             _sheet_cell(pos, vel, frc, r, cols - 1, rows, cols, w, tension, damping, fixed)
+    _sheet_driven(pos, vel, frc, drv, rows, cols, w, tension, damping, False)
     for i in range(rows * cols):
         pos[i] += dt * vel[i]
