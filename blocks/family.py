@@ -110,6 +110,10 @@ class Group:
         """[(array key, (row, col), Control)]: set every sample before the step."""
         return []
 
+    def wired(self, points):
+        """{array key: point indices} the patch adds forces into, told before `step` and before
+        `arrays` is read again (a group may then replace an array, e.g. a list of driven points)."""
+
     def step(self):
         """(function, [Array | Number | Flag | Control]): the per-sample update, a @helper."""
         raise NotImplementedError

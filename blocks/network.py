@@ -171,6 +171,7 @@ class Network(Group):
         self.inv_m0 = self.inv_m.copy()
         self.cut_cells = {}
         self.stencil = None
+        self.drv = np.zeros(0, dtype=np.int64)    # the stencil's driven cells (wired), sorted
         if self.stencils and only is not None and only.shape and len(only.shape) <= 2 and not self.springs:
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
@@ -215,7 +216,7 @@ class Network(Group):
     @property
     def arrays(self):
         if self.stencil is not None:
-            return {"x": self.pos, "v": self.vel, "f": self.frc}
+            return {"x": self.pos, "v": self.vel, "f": self.frc, "drv": self.drv}
         return {"x": self.pos, "v": self.vel, "f": self.frc, "inv_m": self.inv_m, "damp": self.damp,
                 "anchor": self.anchor, "cid": self.cid, "rowptr": self.rowptr, "col": self.col, "kr": self.kr,
                 "jrow": self.jrow, "jcol": self.jcol, "jk": self.jk, "scale": self.scale}
@@ -252,12 +253,16 @@ class Network(Group):
                     "scale")
             return lattice.network_step, [Array(k) for k in keys] + [dt]
         comp = self.components[0]
-        args = [Array("x"), Array("v"), Array("f")]
+        args = [Array("x"), Array("v"), Array("f"), Array("drv")]
         if self.stencil == "sheet":
             args += [Number(comp.shape[0], "int", "rows"), Number(comp.shape[1], "int", "cols")]
         args += [Control(comp.name, "mass", inverse=True), Control(comp.name, "tension"),
                  Control(comp.name, "damping"), dt, Flag(comp.inst.values["boundary"] == "fixed")]
         return getattr(lattice, f"{self.stencil}_step"), args
+
+    def wired(self, points):
+        """The stencil reads forces only at the cells wired into `f` (the CSR path reads all)."""
+        self.drv = np.array(sorted(points.get("f", ())), dtype=np.int64)
 
     def views(self, block):
         comp = self.by_name[block]

@@ -108,26 +108,38 @@ class SimulatedDevice(Driver):
         self._cache = None
 
     def hand(self, t):
-        """Hand anchor position and velocity at times t (s): linear between keyframes."""
+        """Hand anchor position and velocity at times t (s): linear between keyframes.
+
+        The velocity is each segment's slope, filled run by run (t increases within a run; a
+        repeated script wraps around between runs): a few slices a chunk rather than a search,
+        a gather and a division per sample."""
+        return self._hand_at(self._wrapped(t))
+
+    def _wrapped(self, t):
+        """Times into the script: wrapped around its length when it repeats (hold: false)."""
+        return np.mod(t, self.times[-1]) if not self.hold and self.times[-1] > 0 else t
+
+    def _hand_at(self, t):
         times, xs = self.times, self.xs
-        if not self.hold and times[-1] > 0:
-            t = np.mod(t, times[-1])
         x = np.interp(t, times, xs)
+        v = np.zeros_like(t)
         if len(times) < 2:
-            return x, np.zeros_like(t)
-        seg = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
-        dt = times[seg + 1] - times[seg]
-        slope = np.divide(xs[seg + 1] - xs[seg], dt, out=np.zeros_like(dt), where=dt > 0)
-        inside = (t >= times[0]) & (t < times[-1])
-        return x, np.where(inside, slope, 0.0)
+            return x, v
+        dt = np.diff(times)
+        slopes = np.divide(np.diff(xs), dt, out=np.zeros_like(dt), where=dt > 0)
+        cuts = np.flatnonzero(t[1:] < t[:-1]) + 1
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(t)]):
+            edges = a + np.searchsorted(t[a:b], times, side="left")   # first sample at or after each keyframe
+            for j in range(len(slopes)):
+                v[edges[j]:edges[j + 1]] = slopes[j]
+        return x, v
 
     WINDOW = 4096   # samples of script computed at once, so small blocks cost a copy
 
     def _compute(self, t0, n):
-        t = (t0 + np.arange(n)) / self.rate
+        tt = self._wrapped((t0 + np.arange(n)) / self.rate)
         out = np.empty((n, len(self.columns)))
-        out[:, 0], out[:, 1] = self.hand(t)
-        tt = np.mod(t, self.times[-1]) if not self.hold and self.times[-1] > 0 else t
+        out[:, 0], out[:, 1] = self._hand_at(tt)
         for k, track in enumerate(self.axis_tracks):
             out[:, 2 + k] = np.interp(tt, self.times, track)
         return out

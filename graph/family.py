@@ -96,6 +96,12 @@ class GroupStep:
 
     def bind(self):
         """Controls and step arguments as IR nodes (once live slots exist)."""
+        wired = {}
+        for key, flat in self.forces:
+            wired.setdefault(key, []).append(flat)
+        self.group.wired(wired)
+        for key, value in self.group.arrays.items():     # the group may have replaced one
+            self.prog.arrays[self.arrays[key].index] = value
         self.sets = [(self.arrays[key], tuple(int(i) for i in at), self._node(c))
                      for key, at, c in self.group.controls()]
         fn, args = self.group.step()

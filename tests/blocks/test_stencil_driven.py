@@ -1,0 +1,58 @@
+"""The stencils read forces only at the driven cells (drv): the same numbers as a plain reference
+that adds a force array into every cell each sample, for forces on interior, edge and corner
+cells, both in Python (the interpreter's way) and compiled."""
+import numba
+import numpy as np
+import pytest
+from hapticgraph.blocks import lattice
+from hapticgraph.blocks.core import register_helpers
+
+
+def reference(pos, vel, frc, shape, inv_mass, tension, damping, dt, fixed):
+    """The half-step update with a force array read everywhere (numpy, neighbours up, down,
+    left, right; a fixed boundary is a zero ghost cell, a free one no spring)."""
+    x = pos.reshape(shape)
+    f = np.zeros_like(x)
+    for axis in range(x.ndim):
+        for shift in (1, -1):
+            nb = np.roll(x, shift, axis=axis)
+            edge = [slice(None)] * x.ndim
+            edge[axis] = 0 if shift == 1 else -1
+            diff = nb - x
+            diff[tuple(edge)] = -x[tuple(edge)] if fixed else 0.0
+            f += diff
+    vel += dt * inv_mass * (tension * f.ravel() + frc - damping * vel)
+    frc[:] = 0.0
+    pos += dt * vel
+
+
+@pytest.mark.parametrize("shape,driven", [((9,), [0, 3, 4, 8]), ((1,), [0]), ((2,), [1]),
+                                          ((5, 6), [0, 7, 8, 15, 29]), ((3, 1), [1]), ((1, 4), [2])])
+@pytest.mark.parametrize("fixed", [True, False])
+@pytest.mark.parametrize("compiled", [False, True], ids=["python", "compiled"])
+def test_stencil_reads_forces_only_where_driven(shape, driven, fixed, compiled):
+    n = int(np.prod(shape))
+    rng = np.random.default_rng(1)
+    pos, vel = rng.normal(size=n) * 1e-3, rng.normal(size=n) * 1e-2
+    ref_pos, ref_vel = pos.copy(), vel.copy()
+    frc, ref_frc = np.zeros(n), np.zeros(n)
+    drv = np.array(driven, dtype=np.int64)
+    args = (1000.0, 50.0, 0.02, 1 / 44100, fixed)
+    if compiled:
+        register_helpers()
+        step = numba.njit(lattice.string_step if len(shape) == 1 else lattice.sheet_step)
+    else:
+        step = lattice.string_step if len(shape) == 1 else lattice.sheet_step
+    for t in range(50):
+        force = np.sin(0.3 * t + np.arange(len(driven)))
+        frc[drv] += force
+        ref_frc[drv] += force
+        if len(shape) == 1:
+            step(pos, vel, frc, drv, *args)
+        else:
+            step(pos, vel, frc, drv, shape[0], shape[1], *args)
+        reference(ref_pos, ref_vel, ref_frc, shape, *args)
+        assert not frc.any(), "the step must clear the forces it read"
+    # the reference sums the neighbours in another order: rounding only
+    assert np.allclose(pos, ref_pos, rtol=1e-12, atol=1e-12 * np.abs(ref_pos).max())
+    assert np.allclose(vel, ref_vel, rtol=1e-12, atol=1e-12 * np.abs(ref_vel).max())
