@@ -149,7 +149,7 @@ def contact_force(d, v, p):
         return 0.0
     da = delta ** p[2]
     f = p[1] * da - p[3] * da * v
-    return f if f > 0.0 else 0.0
+    return max(0.0, f)
 
 
 class Contact(Law):
