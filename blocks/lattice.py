@@ -100,13 +100,63 @@ class Lattice(Block, name="lattice"):
 
 
 class Spring(Block, name="spring"):
-    """F = tension·(x_b − x_a) on cell a and −F on cell b.  Ref: Howard & Rimell 2003 (joins)."""
+    """F = f(d) on cell a and −F on cell b, d = x_b − x_a: linear f = tension·d; cubic f = tension·d + k3·d³; table f = T(d) interpolated.  Ref: Howard & Rimell 2003 (joins); Faust mi.lib (nonlinear springs).
+
+    `linear` stays on the CSR path of `network_step`; `cubic` and `table` are link laws
+    (blocks/laws.py), explicit in the half-step scheme like the linear force. The stability check
+    takes each law's stiffest slope over its declared range: tension + 3·k3·range² (cubic), the
+    steepest segment of the table (table; outside `table_range` the force is held).
+    """
 
     a = Param("", doc="a cell: a cell block's name or lattice[i, j]")
     b = Param("", doc="the other cell")
     tension = Param(100.0, unit="N/m", minimum=0.0, maximum=1e9, live=False)
+    law = Param("linear", choices=("linear", "cubic", "table"), doc="force against extension d = x_b − x_a")
+    k3 = Param(0.0, unit="N/m³", minimum=-1e18, maximum=1e18, live=False, doc="cubic: the d³ coefficient")
+    range = Param(0.01, unit="m", above=0.0, maximum=1e3, live=False,
+                  doc="cubic: the largest |d| the stability check covers")
+    table = Param([0.0, 0.0], doc="table: forces [N] at evenly spaced extensions over table_range", min_items=2,
+                  max_items=4096)
+    table_range = Param([-0.01, 0.01], unit="m", doc="table: [lowest, highest] extension", min_items=2,
+                        max_items=2)
     family = MassSpring
     drawing = {"dot": "diamond", "mermaid": ("{", "}")}
+
+    @staticmethod
+    def law_of(values):
+        from . import laws
+        return None if values["law"] == "linear" else laws.LAWS[values["law"]]
+
+    @classmethod
+    def check(cls, p, fs):
+        if p.law == "table" and not p.table_range[1] > p.table_range[0]:
+            yield "table_range", f"[lowest, highest] must rise, got {list(p.table_range)}"
+
+
+class Contact(Block, name="contact"):
+    """δ = gap − (x_b − x_a); F = k·δ^α + λ·δ^α·δ̇ (≥ 0) pushes a and b apart while δ > 0, else 0.  Ref: Hunt & Crossley 1975.
+
+    A link of the mass-spring family (law `contact`, blocks/laws.py), explicit in the half-step
+    scheme: F from x[n] and δ̇ from v[n−½]. The stability check takes k·α·range^(α−1), its
+    stiffest slope up to a penetration `range`. `force` reads the force of the previous step.
+    """
+
+    a = Param("", doc="a cell: a cell block's name or lattice[i, j]")
+    b = Param("", doc="the other cell (at rest at x_a + gap, above a)")
+    gap = Param(0.0, unit="m", minimum=-1e3, maximum=1e3, live=False, doc="x_b − x_a at first touch")
+    k = Param(1e4, unit="N/m^α", minimum=0.0, maximum=1e18, live=False, doc="stiffness")
+    alpha = Param(1.0, minimum=1.0, maximum=10.0, live=False, doc="exponent α ≥ 1")
+    damping = Param(0.0, unit="s/m", minimum=0.0, maximum=1e6, live=False, doc="Hunt–Crossley λ")
+    range = Param(0.001, unit="m", above=0.0, maximum=1e3, live=False,
+                  doc="the largest penetration the stability check covers")
+    force = Out(doc="F [N], ≥ 0 (one sample late: the force of the last step)")
+    family = MassSpring
+    drawing = {"dot": "diamond", "mermaid": ("{", "}")}
+
+    @staticmethod
+    def law_of(values):
+        from . import laws
+        return laws.Contact
 
 
 @helper

@@ -11,6 +11,7 @@ import re
 import numpy as np
 
 from .family import Array, Control, Family, Flag, Group, Number, touching
+from .laws import network_step_for
 
 _REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
 IDX = np.uint32
@@ -158,7 +159,10 @@ class Network(Group):
             part += comp.offset
         self.kr = np.ones(len(self.col))
         jr, jc, jk = [], [], []
+        self._build_laws()
         for s in self.springs:
+            if law_of(s) is not None:
+                continue
             a, b = self.cell_of(s.values["a"]), self.cell_of(s.values["b"])
             jr += [a, b]
             jc += [b, a]
@@ -176,6 +180,36 @@ class Network(Group):
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
                 self.stencil = "string" if len(only.shape) == 1 else "sheet"
+
+    def _build_laws(self):
+        """Nonlinear links, law by law: their cells (ia, ib), parameter rows, output slots (each
+        link's force is kept in f[n + j], read as `NAME.force`), and per cell the Σ of their
+        stiffest slopes and the stiffest link (for the stability check)."""
+        self.laws, self.link_out = {}, {}
+        self.nl_k, self.nl_worst = np.zeros(self.n), {}
+        for s in self.springs:
+            law = law_of(s)
+            if law is None:
+                continue
+            a, b = self.cell_of(s.values["a"]), self.cell_of(s.values["b"])
+            self.link_out[s.name] = self.n + len(self.link_out)
+            self.laws.setdefault(law, []).append((a, b, law.pack(s.values), self.link_out[s.name]))
+            slope = law.slope(s.values)
+            for c in (a, b):
+                self.nl_k[c] += slope
+                if slope > self.nl_worst.get(c, (-1.0,))[0]:
+                    self.nl_worst[c] = (slope, s.name, law.name)
+        self.frc = np.zeros(self.n + len(self.link_out))
+        self.law_arrays = {}
+        for law, rows in self.laws.items():
+            width = max(len(r[2]) for r in rows)
+            prm = np.zeros((len(rows), max(width, 1)))
+            for j, r in enumerate(rows):
+                prm[j, :len(r[2])] = r[2]
+            self.law_arrays.update({
+                f"{law.name}_a": np.array([r[0] for r in rows], dtype=IDX),
+                f"{law.name}_b": np.array([r[1] for r in rows], dtype=IDX),
+                f"{law.name}_p": prm, f"{law.name}_o": np.array([r[3] for r in rows], dtype=IDX)})
 
     def cell_of(self, ref):
         name, index = parse_ref(ref)
@@ -219,9 +253,11 @@ class Network(Group):
             return {"x": self.pos, "v": self.vel, "f": self.frc, "drv": self.drv}
         return {"x": self.pos, "v": self.vel, "f": self.frc, "inv_m": self.inv_m, "damp": self.damp,
                 "anchor": self.anchor, "cid": self.cid, "rowptr": self.rowptr, "col": self.col, "kr": self.kr,
-                "jrow": self.jrow, "jcol": self.jcol, "jk": self.jk, "scale": self.scale}
+                "jrow": self.jrow, "jcol": self.jcol, "jk": self.jk, "scale": self.scale, **self.law_arrays}
 
     def point(self, block, index):
+        if block in self.link_out:
+            return self.link_out[block] if index is None else None
         comp = self.by_name.get(block)
         if comp is None or (index is None) != (not comp.shape):
             return None
@@ -251,7 +287,12 @@ class Network(Group):
         if self.stencil is None:
             keys = ("x", "v", "f", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr", "jrow", "jcol", "jk",
                     "scale")
-            return lattice.network_step, [Array(k) for k in keys] + [dt]
+            args = [Array(k) for k in keys] + [dt]
+            if not self.laws:
+                return lattice.network_step, args
+            for law in self.laws:
+                args += [Array(f"{law.name}_{k}") for k in "abpo"]
+            return network_step_for(list(self.laws)), args
         comp = self.components[0]
         args = [Array("x"), Array("v"), Array("f"), Array("drv")]
         if self.stencil == "sheet":
@@ -265,6 +306,8 @@ class Network(Group):
         self.drv = np.array(sorted(points.get("f", ())), dtype=np.int64)
 
     def views(self, block):
+        if block not in self.by_name:
+            return ()
         comp = self.by_name[block]
         cells = slice(comp.offset, comp.offset + comp.count)
         return self.pos[cells], self.vel[cells]
@@ -305,13 +348,14 @@ class Network(Group):
             raise ValueError(f"unknown cell edit {action!r} (lock, unlock, cut)")
         return flat
 
-    def stiffness_parts(self):
-        """Per cell: (Σk of its lattice's springs and anchors, Σk of the joins on it)."""
+    def stiffness_parts(self, laws=False):
+        """Per cell: (Σk of its lattice's springs and anchors, Σk of the joins on it; with `laws`
+        also the stiffest slopes of its nonlinear links)."""
         t = np.array([c.inst.values["tension"] if c.shape else 0.0 for c in self.components])
         counts = np.diff(self.rowptr.astype(np.int64)) + self.anchor
         joins = np.add.reduceat(np.append(self.jk, 0.0), np.minimum(self.jrow[:-1], len(self.jk)).astype(np.int64))
         joins[np.diff(self.jrow.astype(np.int64)) == 0] = 0.0
-        return t[self.cid] * counts, joins
+        return t[self.cid] * counts, joins + self.nl_k if laws else joins
 
     def stiffness_sums(self):
         """Σk per cell (springs and anchors) at the components' current tensions."""
@@ -377,8 +421,18 @@ def _csr(n, rows, cols, vals):
     return rowptr.astype(idx), cols[order].astype(idx), np.ascontiguousarray(vals[order], dtype=np.float64)
 
 
+def is_link(inst):
+    """A link member (a spring, a contact, a plugin's link): it joins two points `a` and `b`."""
+    return hasattr(inst.cls, "law_of")
+
+
+def law_of(inst):
+    """The Law of a link (None: the linear spring, on the CSR path)."""
+    return inst.cls.law_of(inst.values)
+
+
 def _joins(inst):
-    if inst.cls.type_name != "spring":
+    if not is_link(inst):
         return ()
     refs = (parse_ref(inst.values[key]) for key in ("a", "b"))
     return [ref[0] for ref in refs if ref]
@@ -388,8 +442,8 @@ def group(blocks):
     """Mass-spring blocks grouped by touch: [(members, springs)] in patch order."""
     out = []
     for members in touching([b for b in blocks.values() if is_mass_spring(b)], _joins):
-        bodies = [b for b in members if b.cls.type_name != "spring"]
-        springs = [b for b in members if b.cls.type_name == "spring"]
+        bodies = [b for b in members if not is_link(b)]
+        springs = [b for b in members if is_link(b)]
         if bodies:
             out.append((bodies, springs))
     return out
@@ -399,13 +453,13 @@ def check_springs(blocks, problems, declared=()):
     """Spring references name existing cells, not cut, and not the same cell twice.
     (`declared`: every block name of the patch, also those with problems of their own.)"""
     for inst in blocks.values():
-        if not is_mass_spring(inst) or inst.cls.type_name != "spring":
+        if not is_mass_spring(inst) or not is_link(inst):
             continue
         cells = []
         for key in ("a", "b"):
             line = inst.line_of(key)
             ref = parse_ref(inst.values[key])
-            where = f"block {inst.name!r} (spring): parameter {key!r}"
+            where = f"block {inst.name!r} ({inst.cls.type_name}): parameter {key!r}"
             if ref is None or not inst.values[key]:
                 problems.add(line, f"{where}: write a cell as NAME or NAME[i, j]")
                 continue
@@ -436,7 +490,7 @@ def check_springs(blocks, problems, declared=()):
                     continue
             cells.append((name, index))
         if len(cells) == 2 and cells[0] == cells[1]:
-            problems.add(inst.line, f"block {inst.name!r} (spring): joins cell {inst.values['a'].strip()} to itself")
+            problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): joins cell {inst.values['a'].strip()} to itself")
 
 
 def _cells(inst):
@@ -447,7 +501,7 @@ def check_cells(blocks, problems):
     """All lattices and cells of a patch together hold at most MAX_CELLS cells (each lattice is
     also capped on its own by its check); nothing sized by the cells is built here."""
     total, parts = 0, []
-    for inst in sorted((b for b in blocks.values() if is_mass_spring(b) and b.cls.type_name != "spring"),
+    for inst in sorted((b for b in blocks.values() if is_mass_spring(b) and not is_link(b)),
                        key=lambda b: b.index):
         n = _cells(inst)
         total += n
@@ -470,12 +524,16 @@ def _worst_exact(members, springs, rate):
     movable = np.isfinite(mass)
     if not movable.any():
         return None
-    own, joins = net.stiffness_parts()
+    own, joins = net.stiffness_parts(laws=True)
     ksum = own + joins
     number = np.where(movable, stability_number(net.dt, ksum, np.where(movable, mass, 1.0), damp), 0.0)
     worst = int(np.argmax(number))
     comp = net.component_of(worst)
-    return (float(number[worst]), comp.inst, comp.label(worst), mass[worst], ksum[worst], damp[worst],
+    label = comp.label(worst)
+    if worst in net.nl_worst:
+        slope, link, law = net.nl_worst[worst]
+        label += f" (its stiffest link: {link!r}, law {law}, slope up to {slope:.4g} N/m in its declared range)"
+    return (float(number[worst]), comp.inst, label, mass[worst], ksum[worst], damp[worst],
             own[worst], joins[worst])
 
 
@@ -489,7 +547,8 @@ def _worst_bound(members, springs, rate):
         for key in ("a", "b"):
             name, index = parse_ref(s.values[key])
             cell = (name, tuple(index) if index is not None else None)
-            joins[cell] = joins.get(cell, 0.0) + s.values["tension"]
+            law = law_of(s)
+            joins[cell] = joins.get(cell, 0.0) + (s.values["tension"] if law is None else law.slope(s.values))
     best = None
     for inst in members:
         v = inst.values
@@ -556,7 +615,7 @@ class MassSpring(Family):
 
     @classmethod
     def link_ends(cls, inst):
-        if inst.cls.type_name != "spring":
+        if not is_link(inst):
             return []
         return [(inst.values[k].split("[")[0].strip(), inst.values[k].strip()) for k in ("a", "b")]
 
@@ -577,6 +636,6 @@ class MassSpring(Family):
 
     @classmethod
     def build(cls, members, rate, editable=False):
-        bodies = [b for b in members if b.cls.type_name != "spring"]
-        springs = [b for b in members if b.cls.type_name == "spring"]
+        bodies = [b for b in members if not is_link(b)]
+        springs = [b for b in members if is_link(b)]
         return Network(bodies, springs, rate, stencils=not editable) if bodies else None
