@@ -22,6 +22,7 @@ imported when it is opened.
 import math
 import os
 
+from ..blocks.controllers import MidiCC, MidiNote, OscIn
 from ..blocks.device import Haptic
 from ..blocks.sources import AudioIn
 from ..graph.errors import PatchError
@@ -249,7 +250,7 @@ class AudioInputKind:
     def kept(self, old, new):
         return old.cls is new.cls and same(old.values, new.values)
 
-    def open(self, inst, base, live_input=None):
+    def open(self, inst, base, live_input=None, drivers=None):
         from . import DeviceError
         from .files import WavInput
         what = f"block {inst.name!r} ({inst.cls.type_name})"
@@ -264,8 +265,83 @@ class AudioInputKind:
             raise DeviceError(f"{what}: cannot read {inst.values['file']!r}: {exc}") from None
 
 
-KINDS = (SimulatedKind(), HidKind(), ReplayKind())
-INPUTS = (AudioInputKind(),)
+class ControllerKind(DriverKind):
+    """A device that plays blocks rather than being one (MIDI, OSC): it binds to no block of its
+    own; each block naming it (`controls`: their types) is fed by a tap of its driver."""
+
+    controls = ()
+
+    def settings(self):
+        return {}
+
+    def axes(self, spec):
+        return []
+
+
+class MidiKind(ControllerKind):
+    """`driver: midi`: a live port or a Standard MIDI File (hapticgraph.devices.midi)."""
+
+    name = "midi"
+    controls = ("midi_note", "midi_cc")
+
+    def settings(self):
+        return {"port": {"type": "string", "minLength": 1,
+                         "description": "play live from the first MIDI input port whose name contains this"},
+                "file": {"type": "string", "minLength": 1,
+                         "description": "a Standard MIDI File beside the patch, rendered headless"},
+                "api": {"enum": ["auto", "jack", "alsa"], "default": "auto",
+                        "description": "the MIDI system a live port is looked for in"}}
+
+    def check(self, name, spec, base, problems):
+        if "port" in spec and "file" in spec:
+            problems.add(spec.lines.get("file", spec.line), f"device {name!r}: give a MIDI `port` or a `file`, not both")
+        ref = spec.get("file")
+        if isinstance(ref, str) and ref and not os.path.isfile(os.path.join(base, ref)):
+            problems.add(spec.lines.get("file", spec.line), f"device {name!r}: no MIDI file {ref!r} beside the patch")
+
+    def open(self, name, spec, patch):
+        from .midi import MidiHub
+        return MidiHub(name, spec)
+
+
+class OscKind(ControllerKind):
+    """`driver: osc`: OSC messages over UDP (hapticgraph.devices.osc)."""
+
+    name = "osc"
+    controls = ("osc_in",)
+
+    def settings(self):
+        return {"port": {"type": "integer", "minimum": 0, "maximum": 65535, "default": 9000,
+                         "description": "the UDP port to listen on (0: any free port)"},
+                "host": {"type": "string", "minLength": 1, "default": "127.0.0.1",
+                         "description": "the address to listen on (0.0.0.0: every network interface)"}}
+
+    def open(self, name, spec, patch):
+        from .osc import OscHub
+        return OscHub(name, spec)
+
+
+class ControllerInputKind:
+    """The driver of a block played by a controller device (midi_note, midi_cc, osc_in): a tap
+    of the driver opened for the device the block names."""
+
+    name = "controller input"
+    feeds = (MidiNote, MidiCC, OscIn)
+
+    def kept(self, old, new):
+        return old.cls is new.cls and same(old.values, new.values)
+
+    def open(self, inst, base, live_input=None, drivers=None):
+        from . import DeviceError
+        hub = (drivers or {}).get(inst.values["device"])
+        if not hasattr(hub, "tap"):
+            raise DeviceError(f"block {inst.name!r} ({inst.cls.type_name}): device {inst.values['device']!r} "
+                              f"is not open as a controller")
+        return hub.tap(inst)
+
+
+KINDS = (SimulatedKind(), HidKind(), ReplayKind(), MidiKind(), OscKind())
+INPUTS = (AudioInputKind(), ControllerInputKind())
 
 
 def driver_kinds():

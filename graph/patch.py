@@ -10,6 +10,7 @@ import re
 import jsonschema
 
 from .errors import Collector, PatchError
+from .mapping import check_controls, expand as expand_map
 from .network import check_cells, check_springs, check_stability, kernel_items
 from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
@@ -139,6 +140,8 @@ def load(path, overrides=(), registry=None, drivers=None):
     _check_schema(doc, registry, problems)
     _stop_if_full(problems)
     _check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
+    check_controls(doc, registry, problems)
+    doc = expand_map(doc, registry, problems)     # `map:` entries become blocks and connections
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema

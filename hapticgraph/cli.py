@@ -575,6 +575,8 @@ def _cmd_devices(args):
         marks = [m for m, on in (("default output", c["default_out"]), ("default input", c["default_in"])) if on]
         print(f"  {c['index']:3d}  {c['name']}  [{c['hostapi']}]  in {c['inputs']}, out {c['outputs']}, "
               f"{c['rate']:g} Hz{'  (' + ', '.join(marks) + ')' if marks else ''}")
+    from .devices.midi import port_lines
+    print(*port_lines(), sep="\n")
     print("HID devices (hidapi):")
     try:
         from .devices.hid import list_hid_devices
