@@ -75,7 +75,7 @@ def test_port_in_use_is_a_clear_error(write_patch):
 
 
 def test_probe_sender_rate(write_patch):
-    got, done = [], threading.Event()
+    got = []
     dispatcher = Dispatcher()
     dispatcher.map("/src/out", lambda address, value: got.append(value))
     dispatcher.map("/amp/out", lambda address, value: got.append(-value))
