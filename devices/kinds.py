@@ -265,6 +265,65 @@ class AudioInputKind:
             raise DeviceError(f"{what}: cannot read {inst.values['file']!r}: {exc}") from None
 
 
+class SerialKind(DriverKind):
+    """`driver: serial`: a haptic device on a serial line, described by a wire-protocol profile
+    (hapticgraph.devices.serial_port, .serial_profiles)."""
+
+    name = "serial"
+    required = ("profile", "port")
+
+    def settings(self):
+        return {**super().settings(),
+                "profile": {"type": "string", "minLength": 1,
+                            "description": "a shipped serial profile's name (fader_1dof, pantograph_2dof) "
+                                           "or a profile .yaml file beside the patch"},
+                "port": {"type": "string", "minLength": 1, "description": "the serial port, e.g. /dev/ttyACM0"},
+                "baudrate": {"type": "integer", "minimum": 300, "maximum": 50_000_000,
+                             "description": "bits per second, if not the profile's"}}
+
+    def check(self, name, spec, base, problems):
+        from .serial_profiles import find_profile, load_profile, shipped_profiles
+        ref = spec.get("profile")
+        if not isinstance(ref, str):
+            return
+        path = find_profile(ref, base)
+        if path is None:
+            problems.add(spec.lines.get("profile", spec.line), f"device {name!r}: no serial profile {ref!r} "
+                         f"(shipped: {', '.join(shipped_profiles())}; or a .yaml file beside the patch)")
+            return
+        try:
+            spec.serial_profile = load_profile(path)
+        except PatchError as exc:
+            problems.add(spec.lines.get("profile", spec.line), f"device {name!r}: serial profile {ref!r} has "
+                         f"{len(exc.problems)} problem(s), listed at its own file and lines")
+            problems.problems.extend(exc.problems)
+            return
+        _check_limit(spec, name, spec.serial_profile.max_force,
+                     f"the bound its profile {spec.serial_profile.name!r} states", problems)
+
+    def axes(self, spec):
+        profile = getattr(spec, "serial_profile", None)
+        return list(profile.ports) if profile is not None else []
+
+    def override(self, spec, settings, drop=()):
+        entry = super().override(spec, settings, drop)
+        if "profile" not in settings and hasattr(spec, "serial_profile"):
+            entry.serial_profile = spec.serial_profile
+        return entry
+
+    def open(self, name, spec, patch):
+        from . import DeviceError
+        from .serial_port import SerialDriver
+        profile = getattr(spec, "serial_profile", None)
+        if profile is None:
+            from .serial_profiles import find_profile, load_profile
+            path = find_profile(str(spec.get("profile", "")), os.path.dirname(os.path.abspath(patch.file)))
+            if path is None:
+                raise DeviceError(f"device {name!r}: no serial profile {spec.get('profile')!r}")
+            profile = load_profile(path)
+        return SerialDriver(name, spec, profile)
+
+
 class ControllerKind(DriverKind):
     """A device that plays blocks rather than being one (MIDI, OSC): it binds to no block of its
     own; each block naming it (`controls`: their types) is fed by a tap of its driver."""
@@ -340,7 +399,7 @@ class ControllerInputKind:
         return hub.tap(inst)
 
 
-KINDS = (SimulatedKind(), HidKind(), ReplayKind(), MidiKind(), OscKind())
+KINDS = (SimulatedKind(), HidKind(), ReplayKind(), SerialKind(), MidiKind(), OscKind())
 INPUTS = (AudioInputKind(), ControllerInputKind())
 
 
