@@ -52,7 +52,7 @@ def test_osc_take_rerenders_bit_for_bit(tmp_path, write_patch):
             client.send_message("/pitch", (k % 5) / 4)
             k += 1
             time.sleep(0.001)
-        out, err = proc.communicate(timeout=120)
+        _, err = proc.communicate(timeout=120)
     finally:
         proc.kill()
     assert proc.returncode == 0, err
