@@ -166,7 +166,7 @@ def open_drivers(patch, choices=None, live_input=None, notes=None):
     for inst in patch.blocks.values():
         feeder = input_kind(inst.cls)
         if feeder is not None:
-            drivers[inst.name] = feeder.open(inst, base, live_input)
+            drivers[inst.name] = feeder.open(inst, base, live_input, drivers)
     return drivers
 
 

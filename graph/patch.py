@@ -10,6 +10,7 @@ import jsonschema
 
 from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
 from .family import check_families, kernel_cost
+from .mapping import check_controls, expand as expand_map
 from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
 from .validate import _check_schema
 from .wiring import _connections
@@ -129,6 +130,8 @@ def load(path, overrides=(), registry=None, drivers=None):
     _check_schema(doc, registry, problems)
     _stop_if_full(problems)
     _check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
+    check_controls(doc, registry, problems)
+    doc = expand_map(doc, registry, problems)     # `map:` entries become blocks and connections
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema

@@ -1,4 +1,5 @@
 """The JSON Schema of a patch, assembled from every registered block type's declarations."""
+from .mapping import map_schema
 
 # Patterns are ECMA-262 (for editors) and read by Python's re.search, whose `$` also matches
 # before a final newline: `(?![\s\S])` anchors at the very end in both, so a name is matched whole.
@@ -65,6 +66,7 @@ def patch_schema(registry):
             "blocks": {"type": "object", "propertyNames": {"pattern": IDENT},
                        "additionalProperties": block},
             "connect": {"type": "array", "items": {"type": "string", "pattern": CONNECTION}},
+            "map": map_schema(),
         },
         "$defs": defs,
     }

@@ -154,7 +154,7 @@ def _report(args, player, report):
 
 
 def cmd_devices(args):
-    """Sound cards (PortAudio) and HID devices (hidapi)."""
+    """Sound cards (PortAudio), MIDI ports and HID devices (hidapi)."""
     print("Sound cards (PortAudio):")
     try:
         cards = audio.sound_cards()
@@ -167,6 +167,8 @@ def cmd_devices(args):
         marks = [m for m, on in (("default output", c["default_out"]), ("default input", c["default_in"])) if on]
         print(f"  {c['index']:3d}  {c['name']}  [{c['hostapi']}]  in {c['inputs']}, out {c['outputs']}, "
               f"{c['rate']:g} Hz{'  (' + ', '.join(marks) + ')' if marks else ''}")
+    from .devices.midi import port_lines
+    print(*port_lines(), sep="\n")
     print("HID devices (hidapi):")
     try:
         from .devices.hid import list_hid_devices

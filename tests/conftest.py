@@ -36,6 +36,9 @@ def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)
         if p.refers == "devices" and name not in params:
             lines.append("devices:\n  dev: {driver: simulated, script: [{t: 0.0, x: 0.0}, {t: 0.01, x: 0.001}]}")
             params[name] = "dev"
+        if p.refers == "controller" and name not in params:     # a silent controller
+            lines.append("devices:\n  ctl: {driver: " + ("osc, port: 0}" if kind == "osc_in" else "midi}"))
+            params[name] = "ctl"
     lines.append("blocks:")
     if kind == "audio_in":   # the test writes in.wav beside the patch
         params.setdefault("file", "in.wav")

@@ -1,0 +1,82 @@
+"""Controllers musicians own: MIDI notes and controllers, OSC values. Each block is fed by its
+device's driver (hapticgraph.devices.midi / .osc) through External columns written per sample, so
+an event takes effect at its own sample, inside an audio block."""
+import math
+
+from .core import Block, External, Out, Param, State
+
+DEVICE_DOC = "the name of a controller entry under devices: (driver midi or osc)"
+A4 = 69.0          # MIDI note number of 440 Hz
+
+
+class MidiNote(Block, name="midi_note"):
+    """freq = 440·2^((note − 69 + bend·bend_range)/12); gate, velocity, pressure as received (last-note priority)."""
+
+    g = Out(name="gate", doc="1 while a key is held, else 0")
+    f = Out(name="freq", doc="the sounding note's frequency, pitch bend applied [Hz] (440 before any note)")
+    vel = Out(name="velocity", doc="the sounding note's on-velocity, 0–1")
+    press = Out(name="pressure", doc="channel or key pressure (aftertouch), 0–1")
+    device = Param("", refers="controller", doc=DEVICE_DOC)
+    channel = Param(0, minimum=0, maximum=16, doc="MIDI channel 1–16; 0: omni (every channel)")
+    bend_range = Param(2.0, unit="semitones", minimum=0.0, maximum=48.0, doc="pitch bend at full deflection")
+    midi_gate = External(doc="1 while a key is held")
+    midi_note = External(doc="the sounding note number (last-note priority)")
+    midi_bend = External(doc="pitch wheel, −1 … 1")
+    midi_velocity = External(doc="on-velocity / 127")
+    midi_pressure = External(doc="aftertouch / 127")
+
+    @staticmethod
+    def output(midi_gate, midi_note, midi_bend, midi_velocity, midi_pressure, bend_range):
+        freq = 440.0 * math.pow(2.0, (midi_note - A4 + midi_bend * bend_range) / 12.0)
+        return midi_gate, freq, midi_velocity, midi_pressure
+
+
+class MidiCC(Block, name="midi_cc"):
+    """u = value/127; target = min + u·(max − min) (linear) or min·(max/min)^u; out[n] = out[n−1] + a·(target − out[n−1]), a = 1 − exp(−1/(smooth·fs))."""
+
+    y = Out(name="out", doc="the controller's value, from min until the first message")
+    device = Param("", refers="controller", doc=DEVICE_DOC)
+    channel = Param(0, minimum=0, maximum=16, doc="MIDI channel 1–16; 0: omni (every channel)")
+    number = Param(1, minimum=0, maximum=127, doc="controller number (1 mod wheel, 7 volume, 74 brightness …)")
+    min = Param(0.0, minimum=-1e12, maximum=1e12, live=False, doc="the output at controller value 0")
+    max = Param(1.0, minimum=-1e12, maximum=1e12, live=False, doc="the output at controller value 127")
+    curve = Param("linear", choices=("linear", "exponential"))
+    smooth = Param(0.0, unit="s", minimum=0.0, maximum=10.0, live=False,
+                   doc="time constant of a one-pole smoother (0: none)")
+    midi_cc = External(doc="the controller's value / 127 (0 before the first message)")
+    y1 = State(lambda p, fs: p.min, doc="the previous output")
+
+    @classmethod
+    def check(cls, p, fs):
+        if p.curve == "exponential" and not p.min * p.max > 0.0:
+            yield "curve", "an exponential curve needs min and max non-zero and of one sign"
+
+    @staticmethod
+    def derive(p, fs):
+        expo = p.curve == "exponential"
+        return {"lo": float(p.min), "span": float(p.max - p.min), "expo": expo,
+                "log_ratio": math.log(p.max / p.min) if expo else 0.0,
+                "a": 1.0 - math.exp(-1.0 / (p.smooth * fs)) if p.smooth > 0.0 else 1.0}
+
+    @staticmethod
+    def output(midi_cc, y1, lo, span, expo, log_ratio, a):
+        target = lo * math.exp(midi_cc * log_ratio) if expo else lo + midi_cc * span
+        return y1 + a * (target - y1)
+
+    @staticmethod
+    def update(y):
+        return y
+
+
+class OscIn(Block, name="osc_in"):
+    """out[n] = the last number received at `address` (0 before the first message)."""
+
+    y = Out(name="out", doc="the value held since the last message")
+    device = Param("", refers="controller", doc=DEVICE_DOC)
+    address = Param("/value", doc="the OSC address pattern's exact address, e.g. /fader/1")
+    index = Param(0, minimum=0, maximum=63, doc="which argument of the message")
+    osc_value = External(doc="the last value received")
+
+    @staticmethod
+    def output(osc_value):
+        return osc_value

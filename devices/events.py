@@ -1,0 +1,107 @@
+"""Timed events to per-sample columns: what the MIDI and OSC drivers share.
+
+A controller device entry (`{driver: midi, ...}`, `{driver: osc, ...}`) opens one Hub: the
+connection (a port, a UDP socket) or the file it reads. Each block that names the device
+(midi_note, midi_cc, osc_in) gets a Tap of the hub, its own Driver, whose External columns it
+writes sample by sample. At each block of samples the hub turns the events due into (sample
+index within the block, message) once, and every tap applies those it listens to at their own
+sample: the value before the event up to it, the new one from it on.
+
+Timing
+    From a file (a Standard MIDI File): each event takes effect at the first sample at or after
+    its time, computed exactly (hapticgraph.devices.midi), whatever the block size.
+    Live: the receiving thread stamps each event with the monotonic clock as it arrives. At a
+    block boundary (wall time `now`) the block of n samples stands for the wall-clock interval
+    (now − n/rate, now]: an event stamped s lands at sample n − 1 − ⌊(now − s)·rate⌋ (0 if
+    older). So the jitter of the block boundaries does not become jitter of the notes; the price
+    is a constant latency of one block (see benchmarks/midi_latency.py for measured figures).
+"""
+import collections
+import math
+import time
+
+import numpy as np
+
+from ..graph.engine import Driver
+
+
+class Hub(Driver):
+    """One controller device: its events, block by block. `timed`: a list of (sample, message)
+    in order (a file), else live events are `post`ed by a receiving thread. `log`, when a list,
+    collects every event delivered as (absolute sample, message): the take of a recording."""
+
+    columns = ()
+
+    def __init__(self, name, timed=None):
+        self.name = name
+        self.timed = timed
+        self.queue = collections.deque()
+        self.log = None
+        self.rate = 44100.0
+        self.lost = None
+        self._block = None
+        self._cache = []
+        self._at = 0
+
+    def start(self, rate):
+        self.rate = float(rate)
+        self._block, self._cache, self._at = None, [], 0
+        self.queue.clear()
+
+    def post(self, message, stamp=None):
+        """A live event (from the receiving thread): thread-safe, never blocks."""
+        self.queue.append((time.monotonic() if stamp is None else stamp, message))
+
+    def events(self, t0, n):
+        """The events of samples t0 … t0+n−1 as [(index within the block, message)], in order."""
+        if self._block == (t0, n):
+            return self._cache
+        out = []
+        if self.timed is not None:
+            timed, end = self.timed, t0 + n
+            while self._at < len(timed) and timed[self._at][0] < end:
+                sample, message = timed[self._at]
+                out.append((max(0, sample - t0), message))
+                self._at += 1
+        else:
+            now, rate, queue = time.monotonic(), self.rate, self.queue
+            while queue and queue[0][0] <= now:
+                stamp, message = queue.popleft()
+                out.append((max(0, n - 1 - math.floor((now - stamp) * rate)), message))
+        if self.log is not None:
+            self.log.extend((t0 + i, m) for i, m in out)
+        self._block, self._cache = (t0, n), out
+        return out
+
+
+class Tap(Driver):
+    """A block's view of a hub: `columns` (its External attributes) held in `row`; subclasses
+    say which messages are theirs (`apply` returns False for others) and reset their state."""
+
+    columns = ()
+
+    def __init__(self, hub, inst):
+        self.hub, self.name = hub, inst.name
+        self.row = np.zeros(len(self.columns))
+        self.reset()
+
+    def reset(self):
+        self.row[:] = 0.0
+
+    def start(self, rate):
+        self.reset()
+
+    def apply(self, message):
+        raise NotImplementedError
+
+    def fill(self, t0, ext):
+        prev, row = 0, self.row
+        for i, message in self.hub.events(t0, ext.shape[0]):
+            if i > prev:
+                ext[prev:i] = row
+                prev = i
+            self.apply(message)
+        ext[prev:] = row
+
+
+__all__ = ["Hub", "Tap"]

@@ -1,0 +1,239 @@
+"""MIDI in (`driver: midi`): a Standard MIDI File rendered headless, or a live port (python-rtmidi).
+
+    devices:
+      keys: {driver: midi, port: "Keystation"}     # a substring of the port's name (`hapticgraph devices`)
+      song: {driver: midi, file: take.mid}          # beside the patch
+    blocks:
+      note: {type: midi_note, device: keys, channel: 0, bend_range: 2}
+      cut:  {type: midi_cc, device: keys, number: 74, min: 200, max: 8000, curve: exponential}
+
+A file's events take effect at the first sample at or after their time, computed exactly from
+the ticks and the tempo map (fractions, no rounding), so a note starts at its exact sample in any
+block size. Live events are timestamped as they arrive and placed within the audio block
+(hapticgraph.devices.events). An entry with neither `port` nor `file` is silent: every block
+keeps its starting value (a patch for live play rendered or checked without the keyboard).
+"""
+import math
+import os
+from fractions import Fraction
+
+from .events import Hub, Tap
+
+DEFAULT_TEMPO = 500000      # µs per beat: 120 beats per minute, the Standard MIDI File default
+APIS = {"auto": None, "jack": "UNIX_JACK", "alsa": "LINUX_ALSA"}
+
+
+def _error(message):
+    from . import DeviceError
+    return DeviceError(message)
+
+
+# -- files ---------------------------------------------------------------------------------------
+
+def read_midi_file(path, rate):
+    """Every channel message of a Standard MIDI File as (sample, mido.Message), in order: the
+    sample is ⌈t·rate⌉ with t exact (ticks through the tempo map, as fractions)."""
+    import mido
+    mid = mido.MidiFile(path)
+    if mid.type == 2:
+        raise ValueError("a type 2 (asynchronous) MIDI file has no common time line")
+    tpb = Fraction(mid.ticks_per_beat)
+    tempo, seconds, out = DEFAULT_TEMPO, Fraction(0), []
+    for message in mido.merge_tracks(mid.tracks):
+        seconds += Fraction(message.time) * tempo / (tpb * 1_000_000)
+        if message.type == "set_tempo":
+            tempo = message.tempo
+        elif not message.is_meta and hasattr(message, "channel"):
+            out.append((math.ceil(seconds * Fraction(rate)), message.copy(time=0)))
+    return out
+
+
+def write_midi_file(path, events, rate):
+    """Write (sample, mido.Message) events as a Standard MIDI File in which one tick is one
+    sample at `rate` (read back by read_midi_file at the same rate, every event at its sample)."""
+    import mido
+    r = int(rate)
+    if r != rate:
+        raise ValueError("a MIDI take needs a whole number of samples per second")
+    tpb = r // math.gcd(r, 1_000_000)                       # tpb·1e6/rate µs per beat: a whole number
+    while tpb < 96:
+        tpb *= 2
+    mid = mido.MidiFile(type=0, ticks_per_beat=tpb)
+    track = mido.MidiTrack([mido.MetaMessage("set_tempo", tempo=tpb * 1_000_000 // r, time=0)])
+    last = 0
+    for sample, message in events:
+        track.append(message.copy(time=int(sample) - last))
+        last = int(sample)
+    mid.tracks.append(track)
+    mid.save(path)
+
+
+# -- ports ----------------------------------------------------------------------------------------
+
+def _rtmidi_apis(api="auto"):
+    import rtmidi
+    os.environ.setdefault("JACK_NO_START_SERVER", "1")   # listing must not start a JACK server
+    if APIS[api] is not None:
+        return [getattr(rtmidi, "API_" + APIS[api])]
+    return [a for a in rtmidi.get_compiled_api() if a != rtmidi.API_RTMIDI_DUMMY]
+
+
+def list_ports(api="auto"):
+    """The MIDI input ports every available backend sees, as (backend name, port name)."""
+    import rtmidi
+    out = []
+    for a in _rtmidi_apis(api):
+        try:
+            midi_in = rtmidi.MidiIn(a)
+        except Exception:  # noqa: BLE001, S112 - a backend without its server (no JACK, no ALSA sequencer)
+            continue
+        out += [(rtmidi.get_api_name(a), p) for p in midi_in.get_ports()]
+        midi_in.delete()
+    return out
+
+
+def port_lines():
+    """The `hapticgraph devices` section."""
+    try:
+        ports = list_ports()
+    except ImportError as exc:
+        return ["MIDI input ports (python-rtmidi):", f"  unavailable: {exc}"]
+    return ["MIDI input ports (python-rtmidi):"] + ([f"  {api}: {p}" for api, p in ports] or ["  none found"])
+
+
+class PortReader:
+    """A live input port through python-rtmidi: the first whose name contains `port`."""
+
+    def __init__(self, hub, port, api="auto"):
+        self.hub, self.port, self.api, self.midi_in = hub, port, api, None
+
+    def open(self):
+        import mido
+        import rtmidi
+        seen = []
+        for a in _rtmidi_apis(self.api):
+            try:
+                midi_in = rtmidi.MidiIn(a, name="hapticgraph")
+            except Exception:  # noqa: BLE001, S112 - this backend has no server here; try the next
+                continue
+            ports = midi_in.get_ports()
+            seen += ports
+            match = next((k for k, p in enumerate(ports) if self.port in p), None)
+            if match is None:
+                midi_in.delete()
+                continue
+            parser = mido.Parser()
+
+            def received(event, _data=None, parser=parser):
+                parser.feed(event[0])
+                for message in parser:
+                    self.hub.post(message)
+            midi_in.set_callback(received)
+            midi_in.ignore_types(sysex=True, timing=True, active_sense=True)
+            midi_in.open_port(match, name="in")
+            self.midi_in = midi_in
+            return
+        raise _error(f"device {self.hub.name!r}: no MIDI input port matching {self.port!r} "
+                     f"(ports: {', '.join(seen) or 'none'}; `hapticgraph devices` lists them)")
+
+    def close(self):
+        midi_in, self.midi_in = self.midi_in, None
+        if midi_in is not None:
+            midi_in.cancel_callback()
+            midi_in.close_port()
+            midi_in.delete()
+
+
+class MidiHub(Hub):
+    """The driver of a `driver: midi` device entry (see the module's doc)."""
+
+    def __init__(self, name, spec):
+        super().__init__(name)
+        self.file, self.reader = spec.get("file"), None
+        if spec.get("port") is not None:
+            self.reader = PortReader(self, spec["port"], spec.get("api", "auto"))
+        elif self.file is None:
+            self.timed = []
+
+    def start(self, rate):
+        super().start(rate)
+        if self.file is not None:
+            try:
+                self.timed = read_midi_file(self.file, rate)
+            except (OSError, ValueError, EOFError) as exc:
+                raise _error(f"device {self.name!r}: cannot read the MIDI file {self.file!r}: {exc}") from None
+        elif self.reader is not None and self.reader.midi_in is None:
+            self.reader.open()
+
+    def stop(self):
+        if self.reader is not None:
+            self.reader.close()
+
+    def tap(self, inst):
+        """The driver of a block that names this device."""
+        return TAPS[inst.cls.type_name](self, inst)
+
+
+def _channel_of(inst):
+    channel = int(inst.values.get("channel", 0))
+    return None if channel == 0 else channel - 1
+
+
+class NoteTap(Tap):
+    """midi_note: last-note priority over the keys held (a release falls back to the newest key
+    still held, legato), pitch bend, velocity, channel and key pressure."""
+
+    columns = ("midi_gate", "midi_note", "midi_bend", "midi_velocity", "midi_pressure")
+
+    def __init__(self, hub, inst):
+        self.channel = _channel_of(inst)
+        super().__init__(hub, inst)
+
+    def reset(self):
+        self.row[:] = (0.0, 69.0, 0.0, 0.0, 0.0)
+        self.held = []
+
+    def apply(self, m):
+        if not hasattr(m, "channel") or (self.channel is not None and m.channel != self.channel):
+            return
+        row, kind = self.row, m.type
+        if kind == "note_on" and m.velocity > 0:
+            if m.note in self.held:
+                self.held.remove(m.note)
+            self.held.append(m.note)
+            row[0], row[1], row[3] = 1.0, m.note, m.velocity / 127.0
+        elif kind in ("note_off", "note_on"):
+            if m.note in self.held:
+                self.held.remove(m.note)
+            if self.held:
+                row[1] = self.held[-1]
+            else:
+                row[0] = 0.0
+        elif kind == "pitchwheel":
+            row[2] = m.pitch / 8192.0
+        elif kind == "aftertouch" or (kind == "polytouch" and self.held and m.note == self.held[-1]):
+            row[4] = m.value / 127.0
+        elif kind == "control_change" and m.control in (120, 123):     # all sound / all notes off
+            self.held = []
+            row[0] = 0.0
+
+
+class ControlTap(Tap):
+    """midi_cc: the value / 127 of one controller number."""
+
+    columns = ("midi_cc",)
+
+    def __init__(self, hub, inst):
+        self.channel, self.number = _channel_of(inst), int(inst.values.get("number", 1))
+        super().__init__(hub, inst)
+
+    def apply(self, m):
+        if m.type == "control_change" and m.control == self.number and (
+                self.channel is None or m.channel == self.channel):
+            self.row[0] = m.value / 127.0
+
+
+TAPS = {"midi_note": NoteTap, "midi_cc": ControlTap}
+
+__all__ = ["ControlTap", "MidiHub", "NoteTap", "PortReader", "list_ports", "port_lines", "read_midi_file",
+           "write_midi_file"]

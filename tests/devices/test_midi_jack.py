@@ -1,0 +1,113 @@
+"""Live MIDI through a real JACK server (`jackd -d dummy`, its own server name): a python-rtmidi
+output port plays the patch's `{driver: midi, port: ...}` device; `hapticgraph devices` lists it."""
+import os
+import subprocess
+import sys
+import time
+import uuid
+
+import numpy as np
+import pytest
+import rtmidi
+from hapticgraph.devices import open_drivers
+from hapticgraph.devices.midi import list_ports
+from hapticgraph.graph.engine import Session
+
+import hapticgraph
+
+PATCH = """
+hapticgraph: 1
+rate: 48000
+devices:
+  keys: {driver: midi, port: PORT, api: jack}
+blocks:
+  note: {type: midi_note, device: keys}
+  cc: {type: midi_cc, device: keys, number: 1, min: 0.0, max: 10.0}
+  out: {type: audio_out, channels: 1}
+connect:
+  - note.gate -> out.ch0
+"""
+
+
+def _wait_for_server(deadline):
+    while time.monotonic() < deadline:
+        try:
+            rtmidi.MidiOut(rtmidi.API_UNIX_JACK, name="probe").delete()
+            return True
+        except Exception:  # noqa: BLE001 - not up yet
+            time.sleep(0.1)
+    return False
+
+
+@pytest.fixture
+def jack(monkeypatch):
+    """A JACK server of our own (dummy backend, 48 kHz, 64-frame periods), by a unique name."""
+    name = f"hgtest-{uuid.uuid4().hex[:8]}"
+    monkeypatch.setenv("JACK_DEFAULT_SERVER", name)
+    monkeypatch.setenv("JACK_NO_START_SERVER", "1")
+    proc = subprocess.Popen(["jackd", "-n", name, "-d", "dummy", "-r", "48000", "-p", "64"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        assert _wait_for_server(time.monotonic() + 20), "jackd did not start"
+        yield name
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+@pytest.fixture
+def keyboard(jack):
+    out = rtmidi.MidiOut(rtmidi.API_UNIX_JACK, name="kbd")
+    out.open_virtual_port("hg-keys")
+    yield out
+    out.close_port()
+    out.delete()
+
+
+def _run_until(session, keyboard, blocks, send, want):
+    """Process blocks at about real time, sending `send` once; stop when `want(rec)` holds."""
+    n = session.blocksize
+    seen = []
+    for k in range(blocks):
+        if k == 2:
+            for message in send:
+                keyboard.send_message(message)
+        time.sleep(n / session.rate)
+        rec = session.process(n).copy()
+        seen.append(rec)
+        if want(np.concatenate(seen)):
+            break
+    return np.concatenate(seen)
+
+
+def test_port_listed_and_played(keyboard, write_patch):
+    assert any("hg-keys" in p for _, p in list_ports("jack"))
+    patch = hapticgraph.load(write_patch(PATCH.replace("PORT", "hg-keys")))
+    session = Session(patch, probes=["note.freq", "note.velocity", "cc.out"], drivers=open_drivers(patch),
+                      blocksize=256)
+    try:
+        rec = _run_until(session, keyboard, 400, [[0x90, 72, 127], [0xE0, 0, 0x60], [0xB0, 1, 127]],
+                         lambda r: r[:, 3].max() == 10.0 and r[:, 1].max() > 1000)
+    finally:
+        session.stop()
+    gate, freq, vel, cc = rec[:, :4].T
+    first = int(np.argmax(gate > 0))
+    assert gate[first] == 1.0 and gate[:first].max() == 0.0
+    assert freq[first] == pytest.approx(440 * 2 ** ((72 - 69) / 12))
+    assert vel[first] == 1.0
+    assert freq.max() == pytest.approx(440 * 2 ** ((72 - 69 + 2 * (0x60 * 128 - 8192) / 8192) / 12))
+    assert cc[0] == 0.0 and cc.max() == 10.0
+
+
+def test_missing_port_is_one_clear_error(jack, write_patch):
+    patch = hapticgraph.load(write_patch(PATCH.replace("PORT", "no-such-port")))
+    drivers = open_drivers(patch)
+    with pytest.raises(Exception, match="no MIDI input port matching 'no-such-port'"):
+        Session(patch, drivers=drivers, blocksize=64).start()
+
+
+def test_devices_lists_midi_ports(keyboard):
+    proc = subprocess.run([sys.executable, "-m", "hapticgraph", "devices"], capture_output=True, text=True, check=False,
+                          env=dict(os.environ), timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "MIDI input ports" in proc.stdout and "hg-keys" in proc.stdout

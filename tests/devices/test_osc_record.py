@@ -1,0 +1,68 @@
+"""`play --record` captures controller input (here OSC over loopback UDP, received live while
+playing): the take re-renders offline (`run --replay`) bit for bit."""
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+from audio_env import alsa_file_env, hapticgraph
+from hapticgraph.devices.record import Take
+from pythonosc.udp_client import SimpleUDPClient
+from scipy.io import wavfile
+
+PATCH = """
+hapticgraph: 1
+rate: 8000
+devices:
+  ctl: {driver: osc, port: PORT}
+blocks:
+  tone: {type: wavetable, shape: sine, frequency: 220.0, amplitude: 0.1}
+  level: {type: osc_in, device: ctl, address: /level}
+  amp: {type: gain, gain: 0.0}
+  out: {type: audio_out, channels: 1}
+connect:
+  - tone.out -> amp.in
+  - amp.out -> out.ch0
+  - level.out -> amp.gain
+map:
+  - {param: tone.frequency, osc: /pitch, min: 110.0, max: 880.0, curve: exponential}
+"""
+
+
+def _free_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_osc_take_rerenders_bit_for_bit(tmp_path, write_patch):
+    env, _ = alsa_file_env(tmp_path)
+    port = _free_port()
+    path = write_patch(PATCH.replace("PORT", str(port)))
+    take = tmp_path / "take"
+    proc = subprocess.Popen([sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "3",
+                             "--blocksize", "256", "--record", take], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    client = SimpleUDPClient("127.0.0.1", port)
+    try:
+        k = 0
+        while proc.poll() is None:         # the file sound card plays faster than real time: keep sending
+            client.send_message("/level", 1.0 + k % 3)
+            client.send_message("/pitch", (k % 5) / 4)
+            k += 1
+            time.sleep(0.001)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    t = Take(f"{take}.hgrec")
+    level = t.inputs[:, t.header["drivers"]["level"]["offset"]]
+    assert set(np.unique(level)) >= {0.0, 1.0, 2.0, 3.0}         # the messages reached the take
+    _, heard = wavfile.read(f"{take}.wav")
+    again = tmp_path / "again.wav"
+    r = hapticgraph(["run", path, "--replay", f"{take}.hgrec", "--out", again, "--quiet"], env)
+    assert r.returncode == 0, r.stderr
+    _, replayed = wavfile.read(again)
+    assert np.abs(heard).max() > 0.05
+    assert np.array_equal(replayed.view(np.uint32), heard.view(np.uint32))
