@@ -10,7 +10,6 @@ import jsonschema
 
 from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
 from .family import check_families, kernel_cost
-from .mapping import check_controls, expand as expand_map
 from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
 from .validate import _check_schema
 from .wiring import _connections
@@ -130,8 +129,7 @@ def load(path, overrides=(), registry=None, drivers=None):
     _check_schema(doc, registry, problems)
     _stop_if_full(problems)
     _check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
-    check_controls(doc, registry, problems)
-    doc = expand_map(doc, registry, problems)     # `map:` entries become blocks and connections
+    doc = _prepare(doc, registry, problems)     # e.g. `map:` entries become blocks and connections
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema
@@ -144,6 +142,19 @@ def load(path, overrides=(), registry=None, drivers=None):
     problems.raise_if_any()
     name = doc.get("name") or os.path.splitext(os.path.basename(path))[0]
     return Patch(path, doc, name, rate, blocks, connections, devices, order, registry)
+
+
+def _prepare(doc, registry, problems):
+    """The document after each driver kind's `prepare` (optional: checks and shorthands of its
+    own sections, such as the controllers' `map:`), each distinct one once."""
+    done = set()
+    for kind in registry.drivers.values():
+        prepare = getattr(kind, "prepare", None)
+        key = getattr(prepare, "__func__", prepare)
+        if prepare is not None and key not in done:
+            done.add(key)
+            doc = prepare(doc, registry, problems)
+    return doc
 
 
 def _read_document(path):

@@ -12,6 +12,10 @@ A driver kind is an object with
     check(name, spec, base, problems)   what the schema cannot check (`base`: the patch's folder;
                 problems: a Collector); it may attach what it parsed to `spec`
     axes(spec)  the device's extra columns (axes, buttons): output ports of the block bound to it
+and optionally
+    sections()  top-level sections of a patch it adds, key -> JSON Schema (the controllers' `map:`)
+    prepare(doc, registry, problems) -> doc   its checks and shorthands, after the schema and
+                the device checks, before the blocks are made (`map:` entries become blocks)
 Everything else about a driver (opening it, simulating, replaying) is devices/' business.
 
 Importing this module is light (no block library): the top floor imports it at start-up."""

@@ -1,5 +1,4 @@
 """The JSON Schema of a patch, assembled from every registered block type's declarations."""
-from .mapping import map_schema
 
 # Patterns are ECMA-262 (for editors) and read by Python's re.search, whose `$` also matches
 # before a final newline: `(?![\s\S])` anchors at the very end in both, so a name is matched whole.
@@ -37,6 +36,14 @@ def device_schema(drivers):
     return schema
 
 
+def _sections(drivers):
+    """Top-level sections driver kinds add to a patch (optional `sections()`: key -> schema)."""
+    out = {}
+    for kind in drivers.values():
+        out.update(getattr(kind, "sections", dict)())
+    return out
+
+
 def patch_schema(registry):
     names = sorted(registry.types)
     defs = {name: registry.types[name].schema() for name in names}
@@ -66,7 +73,7 @@ def patch_schema(registry):
             "blocks": {"type": "object", "propertyNames": {"pattern": IDENT},
                        "additionalProperties": block},
             "connect": {"type": "array", "items": {"type": "string", "pattern": CONNECTION}},
-            "map": map_schema(),
+            **_sections(getattr(registry, "drivers", {})),
         },
         "$defs": defs,
     }

@@ -21,7 +21,7 @@ device whose driver kind lists their type in its `controls`.
 """
 import math
 
-from .source import LDict, LList
+from ..graph.source import LDict, LList
 
 NUMBER = {"type": "number"}
 ITEM = {
