@@ -37,12 +37,12 @@ from .hid_profiles import (
     BUTTON_KEYS,
     FORCE_KEYS,
     MAX_FORCE,
-    _Checker,
     _field,
     _fields,
-    _line,
     _overlaps,
 )
+from .yaml_checks import Checker as _Checker
+from .yaml_checks import line_of as _line
 
 SUFFIXES = (".yaml", ".yml")
 CHECKSUMS = ("sum8", "xor", "none")

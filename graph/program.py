@@ -5,6 +5,7 @@ live parameters, coefficients, buffers and recordings.
 A binding is a node of the IR in ir.py (a literal, the sum of an input's connections, a live or
 state slot, a cell's position, a device column, ...), which says its meaning for both engines.
 """
+
 import numpy as np
 
 from ..blocks.core import _arguments
@@ -90,8 +91,12 @@ class Program:
         for k, v in bp.coefs.items():
             if isinstance(v, tuple):   # an array coefficient: rewritten in place
                 bp.coef_arrays[k] = self._array(v, bp.ident, k)
-            elif isinstance(v, bool) and not live_read:
-                continue          # a flag fixed by the patch: structure (a literal)
+            elif not live_read and (isinstance(v, (bool, float))):
+                # a flag or a filter coefficient fixed by the patch: a literal numba folds (0.0
+                # and 1.0 terms vanish; as data they cost a register each: the waveguide string
+                # ran 1.5x slower). Whole numbers a derive returns (a delay's length in samples,
+                # a pulse's width) are sizes: data.
+                continue
             else:
                 bp.coef_slots[k] = len(self.numbers)
                 bp.coef_nodes[k] = Coef(len(self.numbers), Coef.kind_of(v), self._local("coef", bp, k))
@@ -278,7 +283,8 @@ class Program:
                 return bp.coef_nodes[arg]
             if arg in bp.coef_arrays:
                 return bp.coef_arrays[arg]
-            return self._static(bp.coefs[arg], bp, arg)
+            value = bp.coefs[arg]
+            return Literal(value) if isinstance(value, (bool, float)) else self._static(value, bp, arg)
         raise PlanError(f"block {bp.name!r} ({cls.type_name}): {which}() argument {arg!r} is bound to nothing")
 
     # -- probes and control-rate changes ----------------------------------------------------------
