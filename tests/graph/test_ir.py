@@ -87,7 +87,9 @@ def _namespace(frame, ext, i):
         ns[Live(k).emit()] = eval(Live(k).load(), {"live": frame.live})
         ns[StateSlot(k).emit()] = eval(StateSlot(k).load(), {"state": frame.state})
         c = Coef(k, COEF_KINDS[k])
-        ns[c.emit()] = eval(c.load(), {"coef": frame.coef})
+        # numba's scalars add as Python's (True + True == 2), numpy's bools as a logical or
+        loaded = eval(c.load(), {"coef": frame.coef})
+        ns[c.emit()] = loaded.item() if isinstance(loaded, np.bool_) else loaded
         ns[ArrayRef(k).emit()] = frame.arrays[k]
         ns[f"d{k}"] = frame.derived[k]
         for a in ATTRS:
