@@ -50,7 +50,7 @@ def _port(prog, bp, end, probe):
     from .program import PlanError
     block, port = end.block, end.port
     if bp.inst.output(port) is not None:
-        return Sum((prog._source(Endpoint(block, None, port)),))
+        return Sum((prog.source(Endpoint(block, None, port)),))
     for p in bp.inst.inputs:
         if p.name == port:
             return Sum(bp.inputs.get(port, ()))

@@ -159,7 +159,7 @@ class Program:
         self.ext_columns += [(device, c) for c in columns]
 
     # -- wiring --------------------------------------------------------------------------------
-    def _source(self, end):
+    def source(self, end):
         """What a connection reads: a block output, a device column, or a point of a fused group."""
         gs = self.group_of.get(end.block)
         if gs is not None:
@@ -189,7 +189,7 @@ class Program:
         for c in self.patch.connections:
             if c.dst.block != bp.name:
                 continue
-            source = self._source(c.src)
+            source = self.source(c.src)
             if self._into_point(bp, c.dst.port):
                 self.group_of[bp.name].add_force(c.dst, source)
             elif c.dst.port in bp.cls.params:
