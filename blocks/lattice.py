@@ -134,29 +134,34 @@ class Spring(Block, name="spring"):
 
 
 class Contact(Block, name="contact"):
-    """δ = gap − (x_b − x_a); F = k·δ^α + λ·δ^α·δ̇ (≥ 0) pushes a and b apart while δ > 0, else 0.  Ref: Hunt & Crossley 1975.
+    """δ = gap − (x_b − x_a); F = k·δ^α + λ·δ^α·δ̇ (≥ 0) pushes a and b apart while δ > 0, else 0.  Ref: Hunt & Crossley 1975; Chatziioannou & van Walstijn 2015.
 
-    A link of the mass-spring family (law `contact`, blocks/laws.py), explicit in the half-step
-    scheme: F from x[n] and δ̇ from v[n−½]. The stability check takes k·α·range^(α−1), its
+    A link of the mass-spring family between any two points (cells, lattice cells, `point`
+    blocks, ground). `scheme: energy` (the default, law `contact`, blocks/impact.py): the
+    discrete gradient F = (V(δ[n+1]) − V(δ[n−1]))/(δ[n+1] − δ[n−1]) + λ·δ[n]^α·δ̇, solved after
+    the step; with λ = 0 the energy of the model and the contact (V = k·δ^(α+1)/(α+1)) is kept
+    to rounding. `scheme: explicit` (law `contact_explicit`, blocks/laws.py): F from x[n] and δ̇
+    from v[n−½], cheaper, drifts in energy. The stability check takes k·α·range^(α−1), its
     stiffest slope up to a penetration `range`. `force` reads the force of the previous step.
     """
 
-    a = Param("", doc="a cell: a cell block's name or lattice[i, j]")
-    b = Param("", doc="the other cell (at rest at x_a + gap, above a)")
+    a = Param("", doc="a point: a cell block's name, lattice[i, j], a point block's name, or ground (x = 0)")
+    b = Param("", doc="the other point (at rest at x_a + gap, above a)")
     gap = Param(0.0, unit="m", minimum=-1e3, maximum=1e3, live=False, doc="x_b − x_a at first touch")
     k = Param(1e4, unit="N/m^α", minimum=0.0, maximum=1e18, live=False, doc="stiffness")
     alpha = Param(1.0, minimum=1.0, maximum=10.0, live=False, doc="exponent α ≥ 1")
-    damping = Param(0.0, unit="s/m", minimum=0.0, maximum=1e6, live=False, doc="Hunt–Crossley λ")
+    damping = Param(0.0, unit="N·s/m^(α+1)", minimum=0.0, maximum=1e18, live=False, doc="Hunt–Crossley λ")
     range = Param(0.001, unit="m", above=0.0, maximum=1e3, live=False,
                   doc="the largest penetration the stability check covers")
+    scheme = Param("energy", choices=("energy", "explicit"), doc="energy: discrete gradient; explicit: F from x[n]")
     force = Out(doc="F [N], ≥ 0 (one sample late: the force of the last step)")
     family = MassSpring
     drawing = {"dot": "diamond", "mermaid": ("{", "}")}
 
     @staticmethod
     def law_of(values):
-        from . import laws
-        return laws.Contact
+        from . import impact, laws
+        return impact.Contact if values["scheme"] == "energy" else laws.ExplicitContact
 
 
 @helper
@@ -167,8 +172,10 @@ def network_step(pos, vel, frc, inv_m, damp, anchor, cid, rowptr, col, kr, jrow,
     inv_m and anchor are relative to the component (0 inverse mass: locked), damp is added to the
     component's damping (per-cell overrides). Springs inside
     components (rowptr/col/kr, scaled by the tension) and joins (jrow/jcol/jk, absolute).
+    The cells are the first rowptr.shape[0] − 1 entries; pos and vel may hold extra points after
+    them (ground, driven points, hammers: blocks/points.py), which this step leaves alone.
     """
-    n = pos.shape[0]
+    n = rowptr.shape[0] - 1
     for i in range(n):
         c = cid[i]
         xi = pos[i]

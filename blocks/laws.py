@@ -9,8 +9,18 @@ adds to the Σk of both its cells. Subclassing registers the law and builds its 
 (`NAME_links`, a @helper in the law's module), so a plugin adds a law without touching graph/:
 see examples/law_plugin/.
 
-Every law is explicit in the half-step scheme: F is evaluated at x[n] (and v[n−½]) and enters
-v[n+½] like the linear springs' forces. The linear law keeps its own CSR path (`network_step`).
+A law's `phase` says where its loop runs in the step:
+- "pre" (the default; cubic, table, explicit contact, friction): explicit in the half-step scheme,
+  F evaluated at x[n] (and v[n−½]) is added into the forces before `network_step`, and enters
+  v[n+½] like the linear springs' forces;
+- "post" (the energy-consistent contact, the hammer): after `network_step` has moved every cell as
+  if the link were absent, the law solves for its force from the free positions x̃[n+1] and
+  corrects the two points it joins (a force F on a point of inverse mass w adds dt·w·F to v[n+½]
+  and dt²·w·F to x[n+1], exactly what adding F before the step would have done). Its loop is the
+  class's own `links` @helper (pos, vel, frc, inv_m, scale, cid, ia, ib, prm, io, dt) and may keep
+  state in its rows of `prm`.
+The linear law keeps its own CSR path (`network_step`). Points beyond the network's cells (ground,
+driven points, hammers: blocks/points.py) come first in each step (`points_step`).
 """
 import sys
 
@@ -49,12 +59,26 @@ class Law:
     name = ""
     params = ()
     force = None
+    phase = "pre"
+    controls = ()             # (column of the link's row, live parameter) set every sample
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         if cls.name:
             LAWS[cls.name] = cls
-            cls.links = _define(cls.__module__, f"{cls.name}_links", _LOOP, {"_force": cls.__dict__["force"]})
+            if "links" not in cls.__dict__:
+                cls.links = _define(cls.__module__, f"{cls.name}_links", _LOOP, {"_force": cls.__dict__["force"]})
+
+    @classmethod
+    def row(cls, values, rate):
+        """The link's row in its law's `prm` array (`pack`, unless the law keeps rate-dependent
+        state there)."""
+        return cls.pack(values)
+
+    @classmethod
+    def damping_slope(cls, values):
+        """The largest |dF/dv| [N·s/m] over the declared range (the check adds it to γ)."""
+        return 0.0
 
     @classmethod
     def pack(cls, values):
@@ -67,26 +91,55 @@ class Law:
         raise NotImplementedError
 
 
-def network_step_for(laws):
-    """The step of a network with nonlinear links of `laws` (Law classes, in order): each law's
-    links add their forces, then `network_step` (defined once per combination, in this module)."""
-    from . import lattice
-    name = "network_step_" + "_".join(law.name for law in laws)
+def network_step_for(laws, points=False):
+    """The step of a network with nonlinear links of `laws` (Law classes, in order): the extra
+    points first (`points`: ground, driven points; blocks/points.py), each "pre" law's links add
+    their forces, then `network_step`, then each "post" law's links (defined once per
+    combination, in this module)."""
+    from . import lattice, points as pts
+    name = "network_step_" + "_".join(law.name for law in laws) + ("_pts" if points else "")
     fn = getattr(sys.modules[__name__], name, None)
     if fn is not None and getattr(fn, "_laws", None) == tuple(laws):
         return fn
     base = ("pos, vel, frc, inv_m, damp, anchor, cid, rowptr, col, kr, jrow, jcol, jk, scale, dt")
-    extra = ", ".join(f"{law.name}_a, {law.name}_b, {law.name}_p, {law.name}_o" for law in laws)
-    calls = "".join(f"    _l{i}(pos, vel, frc, {law.name}_a, {law.name}_b, {law.name}_p, {law.name}_o)\n"
-                    for i, law in enumerate(laws))
-    source = f"def {{name}}({base}, {extra}):\n{calls}    _step({base})\n"
+    extra = "".join(f", {law.name}_a, {law.name}_b, {law.name}_p, {law.name}_o" for law in laws)
+    calls = ["    _points(pos, vel, frc, rowptr, pt_slot, pt_in, dt)\n"] if points else []
+    for when in ("pre", "post"):
+        if when == "post":
+            calls.append(f"    _step({base})\n")
+        for i, law in enumerate(laws):
+            if law.phase != when:
+                continue
+            own = f"{law.name}_a, {law.name}_b, {law.name}_p, {law.name}_o"
+            calls.append(f"    _l{i}(pos, vel, frc, {own})\n" if when == "pre" else
+                         f"    _l{i}(pos, vel, frc, inv_m, scale, cid, {own}, dt)\n")
+    source = f"def {{name}}({base}{', pt_slot, pt_in' if points else ''}{extra}):\n{''.join(calls)}"
     names = {f"_l{i}": law.links for i, law in enumerate(laws)}
-    fn = _define(__name__, name, source, dict(names, _step=lattice.network_step))
+    fn = _define(__name__, name, source, dict(names, _step=lattice.network_step, _points=pts.points_step))
     fn._laws = tuple(laws)
     return fn
 
 
 # -- the built-in laws ---------------------------------------------------------------------------
+
+@helper
+def linear_force(d, v, p):
+    """F_b = −tension·d."""
+    return -p[0] * d
+
+
+class LinearLink(Law):
+    """The linear spring where it joins an extra point (ground, a driven point), which the CSR
+    lists (cells only) cannot hold; the same force, explicit like them."""
+
+    name = "linear"
+    params = ("tension",)
+    force = linear_force
+
+    @classmethod
+    def slope(cls, values):
+        return abs(values["tension"])
+
 
 @helper
 def cubic_force(d, v, p):
@@ -152,10 +205,12 @@ def contact_force(d, v, p):
     return max(0.0, f)
 
 
-class Contact(Law):
-    """A unilateral Hunt–Crossley spring-damper, checked over penetrations δ ≤ range."""
+class ExplicitContact(Law):
+    """A unilateral Hunt–Crossley spring-damper, explicit (F from x[n], v[n−½]; it drifts in
+    energy, see blocks/impact.py for the energy-consistent `contact`), checked over penetrations
+    δ ≤ range."""
 
-    name = "contact"
+    name = "contact_explicit"
     params = ("gap", "k", "alpha", "damping")
     force = contact_force
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from .family import Array, Control, Family, Flag, Group, Number, touching
 from .laws import network_step_for
+from . import points as pts
 
 _REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
 IDX = np.uint32
@@ -99,9 +100,11 @@ class Network(Group):
     def __init__(self, members, springs, rate, stencils=True):
         self.stencils = stencils    # False: always the CSR path (cells can be locked/cut live)
         self.dt = 1.0 / rate
+        self.rate = rate
         self.components = []
+        self.point_blocks = [m for m in members if pts.is_point_block(m)]
         offset = 0
-        for inst in members:
+        for inst in (m for m in members if not pts.is_point_block(m)):
             comp = Component(len(self.components), inst, offset)
             self.components.append(comp)
             offset += comp.count
@@ -109,12 +112,13 @@ class Network(Group):
         self.springs = springs
         self.n = offset
         self.names = [m.name for m in members] + [s.name for s in springs]
+        self.extra = pts.layout(offset, self.point_blocks, springs, [r for s in springs for r in _refs(s)])
         self._build()
 
     def _build(self):
         n = self.n
-        self.pos = np.zeros(n)
-        self.vel = np.zeros(n)
+        self.pos = np.zeros(n + len(self.extra))
+        self.vel = np.zeros(n + len(self.extra))
         self.frc = np.zeros(n)
         self.inv_m = np.ones(n)
         self.damp = np.zeros(n)      # per-cell damping added to the component's (overrides)
@@ -161,7 +165,7 @@ class Network(Group):
         jr, jc, jk = [], [], []
         self._build_laws()
         for s in self.springs:
-            if law_of(s) is not None:
+            if self.law(s) is not None:
                 continue
             a, b = self.cell_of(s.values["a"]), self.cell_of(s.values["b"])
             jr += [a, b]
@@ -176,30 +180,47 @@ class Network(Group):
         self.cut_cells = {}
         self.stencil = None
         self.drv = np.zeros(0, dtype=np.int64)    # the stencil's driven cells (wired), sorted
-        if self.stencils and only is not None and only.shape and len(only.shape) <= 2 and not self.springs:
+        if self.stencils and only is not None and only.shape and len(only.shape) <= 2 and not self.springs \
+                and not self.extra:
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
                 self.stencil = "string" if len(only.shape) == 1 else "sheet"
 
+    def law(self, link):
+        """The Law of a link here: a linear spring to an extra point runs as a law (the CSR lists
+        hold cells only)."""
+        law = law_of(link)
+        if law is None and any(self.cell_of(r) >= self.n for r in _refs(link)):
+            from .laws import LinearLink
+            return LinearLink
+        return law
+
     def _build_laws(self):
-        """Nonlinear links, law by law: their cells (ia, ib), parameter rows, output slots (each
-        link's force is kept in f[n + j], read as `NAME.force`), and per cell the Σ of their
-        stiffest slopes and the stiffest link (for the stability check)."""
+        """Nonlinear links, law by law: their points (ia, ib), parameter rows, output slots (each
+        link's force is kept in f[n + extra + j], read as `NAME.force`; a hammer's in its own
+        slot), and per cell the Σ of their stiffest slopes and damping slopes and the stiffest
+        link (for the stability check)."""
         self.laws, self.link_out = {}, {}
-        self.nl_k, self.nl_worst = np.zeros(self.n), {}
+        self.nl_k, self.nl_g, self.nl_worst = np.zeros(self.n), np.zeros(self.n), {}
+        first = self.n + len(self.extra)
         for s in self.springs:
-            law = law_of(s)
+            law = self.law(s)
             if law is None:
                 continue
-            a, b = self.cell_of(s.values["a"]), self.cell_of(s.values["b"])
-            self.link_out[s.name] = self.n + len(self.link_out)
-            self.laws.setdefault(law, []).append((a, b, law.pack(s.values), self.link_out[s.name]))
-            slope = law.slope(s.values)
+            ends = [self.cell_of(r) for r in _refs(s)]
+            a, b = ends if len(ends) == 2 else (self.extra[s.name], ends[0])
+            self.link_out[s.name] = a if pts.owns_point(s) else first + len(self.link_out)
+            self.laws.setdefault(law, []).append((a, b, law.row(s.values, self.rate), self.link_out[s.name], s.name))
+            slope, gamma = law.slope(s.values), law.damping_slope(s.values)
             for c in (a, b):
+                if c >= self.n:
+                    continue
                 self.nl_k[c] += slope
-                if slope > self.nl_worst.get(c, (-1.0,))[0]:
-                    self.nl_worst[c] = (slope, s.name, law.name)
-        self.frc = np.zeros(self.n + len(self.link_out))
+                self.nl_g[c] += gamma
+                if max(slope, gamma) > self.nl_worst.get(c, (-1.0,))[0]:
+                    what = f"slope up to {slope:.4g} N/m" if slope >= gamma else f"damping up to {gamma:.4g} N·s/m"
+                    self.nl_worst[c] = (max(slope, gamma), s.name, law.name, what)
+        self.frc = np.zeros(first + len(self.link_out))
         self.law_arrays = {}
         for law, rows in self.laws.items():
             width = max(len(r[2]) for r in rows)
@@ -210,8 +231,13 @@ class Network(Group):
                 f"{law.name}_a": np.array([r[0] for r in rows], dtype=IDX),
                 f"{law.name}_b": np.array([r[1] for r in rows], dtype=IDX),
                 f"{law.name}_p": prm, f"{law.name}_o": np.array([r[3] for r in rows], dtype=IDX)})
+        self.pt_slot = np.array([self.extra[p.name] for p in self.point_blocks], dtype=np.int64)
+        self.pt_in = np.zeros((len(self.point_blocks), 2))
 
     def cell_of(self, ref):
+        """The slot of a point reference: a cell, or an extra point (ground, a point block)."""
+        if ref.strip() in self.extra:
+            return self.extra[ref.strip()]
         name, index = parse_ref(ref)
         return self.by_name[name].flat(index)
 
@@ -251,13 +277,16 @@ class Network(Group):
     def arrays(self):
         if self.stencil is not None:
             return {"x": self.pos, "v": self.vel, "f": self.frc, "drv": self.drv}
+        extra = {"pt_slot": self.pt_slot, "pt_in": self.pt_in} if self.extra else {}
         return {"x": self.pos, "v": self.vel, "f": self.frc, "inv_m": self.inv_m, "damp": self.damp,
                 "anchor": self.anchor, "cid": self.cid, "rowptr": self.rowptr, "col": self.col, "kr": self.kr,
-                "jrow": self.jrow, "jcol": self.jcol, "jk": self.jk, "scale": self.scale, **self.law_arrays}
+                "jrow": self.jrow, "jcol": self.jcol, "jk": self.jk, "scale": self.scale, **extra, **self.law_arrays}
 
     def point(self, block, index):
         if block in self.link_out:
             return self.link_out[block] if index is None else None
+        if block in self.extra and block != pts.GROUND:
+            return self.extra[block] if index is None else None
         comp = self.by_name.get(block)
         if comp is None or (index is None) != (not comp.shape):
             return None
@@ -279,6 +308,11 @@ class Network(Group):
             if "tension" in comp.inst.cls.params:
                 out.append(("scale", (comp.index, 1), Control(comp.name, "tension")))
             out.append(("scale", (comp.index, 2), Control(comp.name, "damping")))
+        for j, p in enumerate(self.point_blocks):
+            out.append(("pt_in", (j, 0), Control(p.name, "x")))
+        for law, rows in self.laws.items():
+            for j, row in enumerate(rows):
+                out += [(f"{law.name}_p", (j, col), Control(row[4], param)) for col, param in law.controls]
         return out
 
     def step(self):
@@ -288,11 +322,13 @@ class Network(Group):
             keys = ("x", "v", "f", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr", "jrow", "jcol", "jk",
                     "scale")
             args = [Array(k) for k in keys] + [dt]
-            if not self.laws:
+            if not self.laws and not self.extra:
                 return lattice.network_step, args
+            if self.extra:
+                args += [Array("pt_slot"), Array("pt_in")]
             for law in self.laws:
                 args += [Array(f"{law.name}_{k}") for k in "abpo"]
-            return network_step_for(list(self.laws)), args
+            return network_step_for(list(self.laws), points=bool(self.extra)), args
         comp = self.components[0]
         args = [Array("x"), Array("v"), Array("f"), Array("drv")]
         if self.stencil == "sheet":
@@ -431,10 +467,19 @@ def law_of(inst):
     return inst.cls.law_of(inst.values)
 
 
+def ends_of(inst):
+    """The parameters naming the points a link joins (`a`, `b`; a hammer's `at`)."""
+    return getattr(inst.cls, "ends", ("a", "b"))
+
+
+def _refs(inst):
+    return [inst.values[key] for key in ends_of(inst)]
+
+
 def _joins(inst):
     if not is_link(inst):
         return ()
-    refs = (parse_ref(inst.values[key]) for key in ("a", "b"))
+    refs = (parse_ref(r) for r in _refs(inst) if r.strip() != pts.GROUND)
     return [ref[0] for ref in refs if ref]
 
 
@@ -444,53 +489,9 @@ def group(blocks):
     for members in touching([b for b in blocks.values() if is_mass_spring(b)], _joins):
         bodies = [b for b in members if not is_link(b)]
         springs = [b for b in members if is_link(b)]
-        if bodies:
+        if bodies or springs:
             out.append((bodies, springs))
     return out
-
-
-def check_springs(blocks, problems, declared=()):
-    """Spring references name existing cells, not cut, and not the same cell twice.
-    (`declared`: every block name of the patch, also those with problems of their own.)"""
-    for inst in blocks.values():
-        if not is_mass_spring(inst) or not is_link(inst):
-            continue
-        cells = []
-        for key in ("a", "b"):
-            line = inst.line_of(key)
-            ref = parse_ref(inst.values[key])
-            where = f"block {inst.name!r} ({inst.cls.type_name}): parameter {key!r}"
-            if ref is None or not inst.values[key]:
-                problems.add(line, f"{where}: write a cell as NAME or NAME[i, j]")
-                continue
-            name, index = ref
-            target = blocks.get(name)
-            if target is None and name in declared:
-                continue   # that block has its own problem, reported already
-            if target is None:
-                problems.add(line, f"{where}: no lattice or cell block named {name!r}")
-                continue
-            if target.cls.type_name not in ("lattice", "cell"):
-                problems.add(line, f"{where}: {name!r} is a {target.cls.type_name}, not a lattice or a cell")
-                continue
-            if target.cls.type_name == "cell":
-                if index is not None:
-                    problems.add(line, f"{where}: {name!r} is a single cell; write it without an index")
-                    continue
-            else:
-                if index is None:
-                    problems.add(line, f"{where}: {name!r} is a lattice; name one of its cells as {name}[i, ...]")
-                    continue
-                msg = index_problem(list(target.values["shape"]), list(index))
-                if msg:
-                    problems.add(line, f"{where}: {msg}")
-                    continue
-                if list(index) in [list(i) for i in target.values["cut"]]:
-                    problems.add(line, f"{where}: {inst.values[key].strip()} is cut out of its lattice")
-                    continue
-            cells.append((name, index))
-        if len(cells) == 2 and cells[0] == cells[1]:
-            problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): joins cell {inst.values['a'].strip()} to itself")
 
 
 def _cells(inst):
@@ -520,7 +521,7 @@ def _worst_exact(members, springs, rate):
     net = Network(members, springs, rate)
     if net.n == 0:
         return None
-    mass, damp = net.masses(), net.dampings()
+    mass, damp = net.masses(), net.dampings() + net.nl_g
     movable = np.isfinite(mass)
     if not movable.any():
         return None
@@ -531,8 +532,8 @@ def _worst_exact(members, springs, rate):
     comp = net.component_of(worst)
     label = comp.label(worst)
     if worst in net.nl_worst:
-        slope, link, law = net.nl_worst[worst]
-        label += f" (its stiffest link: {link!r}, law {law}, slope up to {slope:.4g} N/m in its declared range)"
+        _, link, law, what = net.nl_worst[worst]
+        label += f" (its stiffest link: {link!r}, law {law}, {what} in its declared range)"
     return (float(number[worst]), comp.inst, label, mass[worst], ksum[worst], damp[worst],
             own[worst], joins[worst])
 
@@ -542,16 +543,19 @@ def _worst_bound(members, springs, rate):
     cell is given the most lattice springs a cell of its lattice can have (so the bound never
     passes an unstable network); cells with overrides or joins are taken one by one."""
     dt = 1.0 / rate
-    joins = {}
+    joins, gammas = {}, {}
     for s in springs:
-        for key in ("a", "b"):
-            name, index = parse_ref(s.values[key])
+        for ref in _refs(s):
+            name, index = parse_ref(ref)
             cell = (name, tuple(index) if index is not None else None)
             law = law_of(s)
             joins[cell] = joins.get(cell, 0.0) + (s.values["tension"] if law is None else law.slope(s.values))
+            gammas[cell] = gammas.get(cell, 0.0) + (0.0 if law is None else law.damping_slope(s.values))
     best = None
     for inst in members:
         v = inst.values
+        if pts.is_point_block(inst):
+            continue
         if inst.cls.type_name == "lattice":
             shape = [int(n) for n in v["shape"]]
             fixed = v["boundary"] == "fixed"
@@ -569,7 +573,7 @@ def _worst_bound(members, springs, rate):
             if index in locked or index in cut:
                 continue
             o = overrides.get(index, {})
-            m, g = o.get("mass", v["mass"]), o.get("damping", v["damping"])
+            m, g = o.get("mass", v["mass"]), o.get("damping", v["damping"]) + gammas.get((inst.name, index), 0.0)
             k_join = joins.get((inst.name, index), 0.0)
             number = stability_number(dt, own + k_join, m, g)
             if best is None or number > best[0]:
@@ -581,6 +585,10 @@ def _worst_bound(members, springs, rate):
 def check_stability(blocks, rate, problems):
     """Refuse a network whose half-step update would blow up, naming the worst cell."""
     for members, springs in group(blocks):
+        from .refs import check_own_masses
+        check_own_masses(springs, rate, problems)
+        if not any(not pts.is_point_block(m) for m in members):
+            continue
         exact = sum(_cells(m) for m in members) <= EXACT_CELLS
         found = (_worst_exact if exact else _worst_bound)(members, springs, rate)
         if found is None or found[0] < STABILITY_BOUND:
@@ -617,11 +625,12 @@ class MassSpring(Family):
     def link_ends(cls, inst):
         if not is_link(inst):
             return []
-        return [(inst.values[k].split("[")[0].strip(), inst.values[k].strip()) for k in ("a", "b")]
+        return [(r.split("[")[0].strip(), r.strip()) for r in _refs(inst) if r.strip() != pts.GROUND]
 
     @classmethod
     def check(cls, blocks, problems, declared, rate):
         before = len(problems.problems)
+        from .refs import check_springs
         check_springs(blocks, problems, declared)
         check_cells(blocks, problems)      # before anything sized by the cells is built
         if len(problems.problems) == before:
@@ -638,4 +647,4 @@ class MassSpring(Family):
     def build(cls, members, rate, editable=False):
         bodies = [b for b in members if not is_link(b)]
         springs = [b for b in members if is_link(b)]
-        return Network(bodies, springs, rate, stencils=not editable) if bodies else None
+        return Network(bodies, springs, rate, stencils=not editable) if bodies or springs else None

@@ -40,7 +40,7 @@ def _point(prog, gs, bp, end, probe):
         message = f"{end.block}{list(end.index)} is not a point of its group"
     if message:
         raise PlanError(f"probe {probe!r}: {message}")
-    if ports[end.port] == "input":
+    if ports[end.port] == "input" and bp.inst.output(end.port) is None:
         return gs.driven(end)
     return Sum((gs.element(end),))
 

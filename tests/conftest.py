@@ -42,7 +42,7 @@ def single_block_patch(kind, params=None, inputs=(), rate=44100, probes=("out",)
     lines.append("blocks:")
     if kind == "audio_in":   # the test writes in.wav beside the patch
         params.setdefault("file", "in.wav")
-    if kind in ("spring", "contact"):   # a link needs two cells to join
+    if kind in ("spring", "contact", "friction"):   # a link needs two cells to join
         lines += ["  c1: {type: cell}", "  c2: {type: cell}"]
         params.setdefault("a", "c1")
         params.setdefault("b", "c2")
