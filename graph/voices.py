@@ -31,11 +31,17 @@ from .validate import _describe
 SECTION = "voices"
 DEFAULT_PREFIX = SECTION[:1]     # v1_NAME, v2_NAME, …
 MAX_VOICES = 128
+# blocks and connections the copies may add, checked before copying: a small file must not
+# become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
+MAX_COPIES = 20_000
 
 
 def voices_schema(block=None):
-    """The section's JSON Schema; `block` (a block's schema) checks the template's blocks too."""
+    """The section's JSON Schema; `block` (a block's schema) checks the template's blocks and
+    the connections' syntax too (the published schema); without it, only the section's shape
+    (the loader's first look: the copies are checked as blocks and connections of the patch)."""
     from .schema import CONNECTION, IDENT
+    connection = {"type": "string", "pattern": CONNECTION} if block is not None else {"type": "string"}
     return {
         "type": "object", "required": ["count", "blocks"], "additionalProperties": False,
         "description": "a polyphonic voice: these blocks and connections copied `count` times",
@@ -45,7 +51,7 @@ def voices_schema(block=None):
                        "description": "the copies are named PREFIX1_NAME … PREFIXcount_NAME"},
             "blocks": {"type": "object", "minProperties": 1, "propertyNames": {"pattern": IDENT},
                        "additionalProperties": block if block is not None else {"type": "object"}},
-            "connect": {"type": "array", "items": {"type": "string", "pattern": CONNECTION}},
+            "connect": {"type": "array", "items": connection},
         },
     }
 
@@ -92,8 +98,14 @@ def _read(doc, registry, problems):
         problems.add(line_of(doc, path), _describe(err, path, doc, registry))
     if errors:
         return None
-    return (section["count"], section.get("prefix", DEFAULT_PREFIX), section["blocks"],
-            section.get("connect") if isinstance(section.get("connect"), LList) else LList())
+    count, blocks = section["count"], section["blocks"]
+    connect = section.get("connect") if isinstance(section.get("connect"), LList) else LList()
+    if count * (len(blocks) + len(connect)) > MAX_COPIES:
+        problems.add(section.lines.get("count", section.line),
+                     f"voices: {count} copies of {len(blocks)} blocks and {len(connect)} connections make "
+                     f"{count * (len(blocks) + len(connect)):,}; at most {MAX_COPIES:,} (docs/limits.md)")
+        return None
+    return count, section.get("prefix", DEFAULT_PREFIX), blocks, connect
 
 
 def _numbered(spec, k, count, registry):

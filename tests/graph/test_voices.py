@@ -88,3 +88,12 @@ def test_schema_offers_the_section():
     from hapticgraph.graph.schema import patch_schema
     section = patch_schema(Registry())["properties"]["voices"]
     assert section["required"] == ["count", "blocks"] and "$ref" not in str(section["properties"]["count"])
+
+
+def test_unreadable_template_connection_and_copy_budget(write_patch):
+    base = HEAD.count("\n")
+    found = _problems(write_patch, HEAD + VOICES.replace("- note.gate -> amp.in", "- note.gate amp.in"))
+    assert found == [(base + 7, "cannot read 'note.gate amp.in': write \"block.port -> block.port\"")]
+    big = VOICES.replace("count: 3", "count: 128") + "".join("    - level.out -> amp.gain\n" for _ in range(200))
+    found = _problems(write_patch, HEAD + big)
+    assert len(found) == 1 and "at most 20,000" in found[0][1] and found[0][0] == base + 2
