@@ -7,10 +7,11 @@ from .core import Block, External, Out, Param, State
 
 DEVICE_DOC = "the name of a controller entry under devices: (driver midi or osc)"
 A4 = 69.0          # MIDI note number of 440 Hz
+MAX_VOICES = 128   # a polyphonic group's largest size: one voice per MIDI key
 
 
 class MidiNote(Block, name="midi_note"):
-    """freq = 440·2^((note − 69 + bend·bend_range)/12); gate, velocity, pressure as received (last-note priority)."""
+    """freq = 440·2^((note − 69 + bend·bend_range)/12); gate, velocity, pressure as received (last-note priority, or voice `voice` of `voices` allocated)."""
 
     g = Out(name="gate", doc="1 while a key is held, else 0")
     f = Out(name="freq", doc="the sounding note's frequency, pitch bend applied [Hz] (440 before any note)")
@@ -19,11 +20,20 @@ class MidiNote(Block, name="midi_note"):
     device = Param("", refers="controller", doc=DEVICE_DOC)
     channel = Param(0, minimum=0, maximum=16, doc="MIDI channel 1–16; 0: omni (every channel)")
     bend_range = Param(2.0, unit="semitones", minimum=0.0, maximum=48.0, doc="pitch bend at full deflection")
+    voice = Param(0, minimum=0, maximum=MAX_VOICES, refers="voice",
+                  doc="0: the keyboard's newest key; k ≥ 1: voice k of a polyphonic group (set by a voices: template)")
+    voices = Param(1, minimum=1, maximum=MAX_VOICES, refers="voices",
+                   doc="the group's number of voices: free voice first, else the oldest note is stolen")
     midi_gate = External(doc="1 while a key is held")
     midi_note = External(doc="the sounding note number (last-note priority)")
     midi_bend = External(doc="pitch wheel, −1 … 1")
     midi_velocity = External(doc="on-velocity / 127")
     midi_pressure = External(doc="aftertouch / 127")
+
+    @classmethod
+    def check(cls, p, fs):
+        if p.voice > p.voices:
+            yield "voice", f"voice {p.voice} of a group of {p.voices}: voices are numbered 1 … {p.voices}"
 
     @staticmethod
     def output(midi_gate, midi_note, midi_bend, midi_velocity, midi_pressure, bend_range):

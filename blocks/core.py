@@ -60,7 +60,10 @@ class Param(_Declaration):
         self.default = default
         self.data_schema = schema  # structured data (e.g. lists of cell indices): this JSON Schema
         self.internal = internal  # set by the engine (e.g. from a device entry), never by a patch
-        self.refers = refers   # "devices": the value must name an entry of the patch's devices
+        # "devices": the value must name an entry of the patch's devices; "file": a file beside the
+        # patch; "controller": a controller device entry; "voice" / "voices": set per copy by a
+        # `voices:` template (the copy's number from 1, the group's size)
+        self.refers = refers
         self.unit = unit
         self.minimum, self.maximum, self.above, self.below = minimum, maximum, above, below
         self.choices = tuple(choices) if choices is not None else None

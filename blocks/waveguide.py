@@ -68,3 +68,34 @@ class Lowpass(Block, name="lowpass"):
     @staticmethod
     def update(hist, hist_mask, t, x):
         hist[t & hist_mask] = x
+
+
+class VariableDelay(Block, name="vdelay"):
+    """out[n] = (1 − f)·in[n − N] + f·in[n − N − 1], N + f = L[n] clamped to [1, max_length]; L = fs/frequency − loop when frequency > 0, else length.  Ref: Faust de.fdelay, STK DelayL."""
+
+    x = In(name="in")
+    y = Out(name="out")
+    length = Param(100.0, unit="samples", minimum=1.0, maximum=float(1 << 20),
+                   doc="the delay while `frequency` is 0; a fractional part interpolates")
+    frequency = Param(0.0, unit="Hz", minimum=0.0, maximum=1e5,
+                      doc="when > 0 the delay is fs/frequency − loop: a feedback loop through it is tuned to this pitch")
+    loop = Param(0.0, unit="samples", minimum=0.0, maximum=1e3, live=False,
+                 doc="the delay the rest of the loop adds (a 3-tap lowpass: 1), subtracted when tuning")
+    max_length = Param(4096, minimum=2, maximum=1 << 20, doc="the longest delay; longer ones are clamped to it")
+    line = Buffer(lambda p, fs: int(p.max_length) + 2)
+
+    @staticmethod
+    def derive(p, fs):
+        return {"cap": float(p.max_length)}
+
+    @staticmethod
+    def output(line, line_mask, t, length, frequency, fs, loop, cap):
+        d = fs / frequency - loop if frequency > 0.0 else length
+        d = min(max(d, 1.0), cap)
+        n = int(d)
+        f = d - n
+        return (1.0 - f) * line[(t - n) & line_mask] + f * line[(t - n - 1) & line_mask]
+
+    @staticmethod
+    def update(line, line_mask, t, x):
+        line[t & line_mask] = x

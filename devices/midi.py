@@ -150,6 +150,7 @@ class MidiHub(Hub):
     def __init__(self, name, spec):
         super().__init__(name)
         self.file, self.reader = spec.get("file"), None
+        self.allocators = {}      # (channel, voices) -> the Allocator polyphonic midi_note blocks share
         if spec.get("port") is not None:
             self.reader = PortReader(self, spec["port"], spec.get("api", "auto"))
         elif self.file is None:
@@ -157,6 +158,8 @@ class MidiHub(Hub):
 
     def start(self, rate):
         super().start(rate)
+        for allocator in self.allocators.values():
+            allocator.reset()
         if self.file is not None:
             try:
                 self.timed = read_midi_file(self.file, rate)
@@ -172,6 +175,14 @@ class MidiHub(Hub):
     def tap(self, inst):
         """The driver of a block that names this device."""
         return TAPS[inst.cls.type_name](self, inst)
+
+    def allocator(self, channel, count):
+        """The voice allocator of a polyphonic group (hapticgraph.devices.voices), shared."""
+        from .voices import Allocator
+        key = (channel, count)
+        if key not in self.allocators:
+            self.allocators[key] = Allocator(self, channel, count)
+        return self.allocators[key]
 
 
 def _channel_of(inst):
@@ -233,7 +244,15 @@ class ControlTap(Tap):
             self.row[0] = m.value / 127.0
 
 
-TAPS = {"midi_note": NoteTap, "midi_cc": ControlTap}
+def note_tap(hub, inst):
+    """midi_note's tap: last-note priority, or voice `voice` of a group of `voices`."""
+    if int(inst.values.get("voice", 0)) > 0:
+        from .voices import VoiceTap
+        return VoiceTap(hub, inst, hub.allocator(_channel_of(inst), int(inst.values.get("voices", 1))))
+    return NoteTap(hub, inst)
+
+
+TAPS = {"midi_note": note_tap, "midi_cc": ControlTap}
 
 __all__ = ["ControlTap", "MidiHub", "NoteTap", "PortReader", "list_ports", "port_lines", "read_midi_file",
            "write_midi_file"]

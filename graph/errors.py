@@ -40,6 +40,7 @@ class Collector:
         self.suppressed = 0        # problems past the limit that were counted, not kept
         self.first_suppressed = None
         self.stopped_at = None     # the line where the loader stopped reading, if it did
+        self.folds = []            # (line, message) -> message: e.g. voice copies told as their template
 
     @property
     def full(self):
@@ -51,6 +52,8 @@ class Collector:
             if self.first_suppressed is None:
                 self.first_suppressed = line
             return
+        for fold in self.folds:
+            message = fold(line, message)
         self.problems.append(Problem(self.file, line, message))
 
     def stop(self, line):

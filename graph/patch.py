@@ -12,6 +12,7 @@ from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
 from .family import check_families, kernel_cost
 from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
 from .validate import _check_schema
+from .voices import expand as expand_voices
 from .wiring import _connections
 from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
@@ -124,6 +125,7 @@ def load(path, overrides=(), registry=None, drivers=None):
     elif drivers is not None:
         registry.drivers = driver_table(drivers)
     _load_plugins(doc, registry, os.path.dirname(os.path.abspath(path)), problems)
+    doc = expand_voices(doc, registry, problems)     # a `voices:` template becomes blocks per voice
     _apply_overrides(doc, overrides, registry, problems)
     _stop_if_full(problems)
     _check_schema(doc, registry, problems)

@@ -45,6 +45,7 @@ def _sections(drivers):
 
 
 def patch_schema(registry):
+    from .voices import voices_schema
     names = sorted(registry.types)
     defs = {name: registry.types[name].schema() for name in names}
     block = {
@@ -73,6 +74,7 @@ def patch_schema(registry):
             "blocks": {"type": "object", "propertyNames": {"pattern": IDENT},
                        "additionalProperties": block},
             "connect": {"type": "array", "items": {"type": "string", "pattern": CONNECTION}},
+            "voices": voices_schema(block),
             **_sections(getattr(registry, "drivers", {})),
         },
         "$defs": defs,

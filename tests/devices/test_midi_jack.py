@@ -111,3 +111,38 @@ def test_devices_lists_midi_ports(keyboard):
                           env=dict(os.environ), timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert "MIDI input ports" in proc.stdout and "hg-keys" in proc.stdout
+
+
+POLY = """
+hapticgraph: 1
+rate: 48000
+devices:
+  keys: {driver: midi, port: hg-keys, api: jack}
+blocks:
+  out: {type: audio_out, channels: 1}
+voices:
+  count: 2
+  blocks:
+    note: {type: midi_note, device: keys}
+  connect:
+    - note.gate -> out.ch0
+"""
+
+
+def test_live_notes_are_allocated_to_voices(keyboard, write_patch):
+    """Three keys through the live path into two voices: the third steals the first voice."""
+    patch = hapticgraph.load(write_patch(POLY))
+    probes = ["v1_note.gate", "v1_note.freq", "v2_note.gate", "v2_note.freq"]
+    session = Session(patch, probes=probes, drivers=open_drivers(patch), blocksize=256)
+    f = [440 * 2 ** ((key - 69) / 12) for key in (60, 64, 67)]
+    try:
+        rec = _run_until(session, keyboard, 400, [[0x90, 60, 100], [0x90, 64, 100], [0x90, 67, 100]],
+                         lambda r: np.isclose(r[:, 2], f[2]).any() and r[-1, 1] == 1.0)
+    finally:
+        session.stop()
+    g1, f1, g2, f2 = rec[:, 1:5].T
+    first, second = int(np.argmax(g1 > 0)), int(np.argmax(g2 > 0))
+    assert first <= second and f1[first] == pytest.approx(f[0]) and f2[second] == pytest.approx(f[1])
+    stolen = int(np.argmax(np.isclose(f1, f[2])))
+    assert g1[stolen] == 0.0 and g1[stolen + 1] == 1.0 and g1[first:stolen].min() == 1.0
+    assert g2[second:].min() == 1.0 and np.allclose(f2[second:], f[1])

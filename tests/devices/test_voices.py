@@ -1,0 +1,120 @@
+"""Voice allocation (hapticgraph.devices.voices): a free voice first (never used, else released
+longest ago), else the oldest note stolen; a released voice keeps its note (it rings on) until
+reused; every change at its event's exact sample, across block boundaries."""
+import mido
+import numpy as np
+import pytest
+from hapticgraph.devices.voices import BEND, GATE, NOTE, PRESSURE, VELOCITY, Allocator
+
+import hapticgraph
+
+
+class Song:
+    """A hub stand-in: (absolute sample, message) events delivered block by block."""
+
+    def __init__(self, events):
+        self.events_at = sorted(events, key=lambda e: e[0])
+
+    def events(self, t0, n):
+        return [(s - t0, m) for s, m in self.events_at if t0 <= s < t0 + n]
+
+
+def on(key, velocity=100, channel=0):
+    return mido.Message("note_on", note=key, velocity=velocity, channel=channel)
+
+
+def off(key, channel=0):
+    return mido.Message("note_off", note=key, channel=channel)
+
+
+def columns(events, count=3, n=200, block=64, channel=None):
+    """n samples × count voices × 5 columns, computed block by block."""
+    alloc = Allocator(Song(events), channel, count)
+    return np.concatenate([alloc.block(t0, min(block, n - t0)).copy() for t0 in range(0, n, block)])
+
+
+def test_free_voice_first_never_used_then_released_longest_ago():
+    c = columns([(10, on(60)), (20, on(64)), (30, off(60)), (40, on(67)), (50, off(64)), (60, on(72)),
+                 (70, on(74))])
+    assert c[10:, 0, NOTE][0] == 60 and c[20, 1, NOTE] == 64
+    assert c[40, 2, NOTE] == 67            # voice 3 was never used: it goes before the released voice 1
+    assert c[60, 0, NOTE] == 72            # voice 1 (released at 30) before voice 2 (released at 50)
+    assert c[70, 1, NOTE] == 74 and c[70, 1, GATE] == 1.0
+    assert c[199, 2, NOTE] == 67 and c[199, 2, GATE] == 1.0   # the held voice is never taken while one is free
+
+
+def test_steal_the_oldest_note():
+    c = columns([(10, on(60)), (11, on(64)), (12, on(67)), (100, on(72)), (150, on(74))])
+    # voice 1 held the oldest note: at sample 100 its freq changes and its gate dips for one sample
+    assert (c[99, 0, NOTE], c[100, 0, NOTE]) == (60, 72)
+    assert list(c[98:103, 0, GATE]) == [1.0, 1.0, 0.0, 1.0, 1.0]
+    assert c[100, 0, VELOCITY] == 100 / 127
+    assert (c[149, 1, NOTE], c[150, 1, NOTE]) == (64, 74)     # then voice 2 (64), the next oldest
+    assert list(c[149:152, 1, GATE]) == [1.0, 0.0, 1.0]
+    assert np.all(c[:, 2, GATE][12:] == 1.0) and np.all(c[12:, 2, NOTE] == 67)   # voice 3 untouched
+
+
+def test_a_released_voice_rings_on_until_reused():
+    c = columns([(10, on(60, velocity=64)), (20, on(64)), (30, off(60)), (90, on(67)), (120, on(69))],
+                count=2)
+    # released: the gate falls, the note and velocity stay (the string keeps its pitch and rings)
+    assert c[29, 0, GATE] == 1.0 and np.all(c[30:90, 0, GATE] == 0.0)
+    assert np.all(c[30:90, 0, NOTE] == 60) and np.all(c[30:90, 0, VELOCITY] == 64 / 127)
+    assert c[90, 0, NOTE] == 67 and (c[89, 0, GATE], c[90, 0, GATE]) == (0.0, 1.0)   # reused: a plain rise
+    assert c[120, 1, NOTE] == 69          # all held: the oldest (64 on voice 2) is stolen
+
+
+def test_a_repeated_key_restrikes_its_own_voice_and_a_stale_note_off_is_ignored():
+    c = columns([(10, on(60)), (20, on(64)), (30, on(60)), (40, on(67)), (41, on(69)), (60, off(60)),
+                 (70, off(64))], count=3)
+    assert list(c[29:32, 0, GATE]) == [1.0, 0.0, 1.0] and c[30, 0, NOTE] == 60
+    # 69 stole voice 2 (64, now the oldest); 64's note-off then finds no voice and changes nothing
+    assert c[41, 1, NOTE] == 69 and np.all(c[42:, 1, GATE] == 1.0)
+    assert np.all(c[60:, 0, GATE] == 0.0)
+
+
+def test_steal_at_a_block_boundary_rises_at_the_next_block():
+    c = columns([(0, on(60)), (63, on(62))], count=1, n=128, block=64)
+    assert list(c[62:66, 0, GATE]) == [1.0, 0.0, 1.0, 1.0] and c[63, 0, NOTE] == 62
+
+
+def test_bend_pressure_channel_and_all_notes_off():
+    events = [(5, on(60)), (6, on(64, channel=2)), (10, mido.Message("pitchwheel", pitch=4096)),
+              (12, mido.Message("polytouch", note=60, value=127)),
+              (14, mido.Message("aftertouch", value=0)),
+              (20, mido.Message("control_change", control=123, value=0))]
+    c = columns(events, count=2)
+    assert np.all(c[10:, :, BEND] == 0.5) and c[12, 0, PRESSURE] == 1.0 and c[12, 1, PRESSURE] == 0.0
+    assert c[14, 0, PRESSURE] == 0.0 and np.all(c[20:, :, GATE] == 0.0) and c[19, 1, GATE] == 1.0
+    only = columns(events, count=2, channel=2)
+    assert only[6, 0, NOTE] == 64 and np.all(only[:, 1, GATE] == 0.0)
+
+
+@pytest.mark.parametrize("chunk", [1, 64, 1000])
+def test_note_ons_at_their_exact_samples_in_a_patch(write_patch, tmp_path, chunk):
+    """Through the loader, the MIDI file reader and the kernel: every block size alike."""
+    from hapticgraph.devices.midi import write_midi_file
+    events = [(100, on(60)), (101, on(64)), (102, on(67)), (150, on(72)), (151, off(64)), (199, on(74))]
+    write_midi_file(tmp_path / "n.mid", events, 48000)
+    patch = hapticgraph.load(write_patch("""
+        hapticgraph: 1
+        rate: 48000
+        devices:
+          keys: {driver: midi, file: n.mid}
+        blocks:
+          out: {type: audio_out, channels: 1}
+        voices:
+          count: 3
+          prefix: key
+          blocks:
+            note: {type: midi_note, device: keys}
+          connect:
+            - note.gate -> out.ch0
+        """))
+    probes = [f"key{k}_note.{p}" for k in (1, 2, 3) for p in ("gate", "freq")]
+    r = hapticgraph.render(patch, 0.005, probes=probes, chunk=chunk)
+    gate = np.stack([r.probes[f"key{k}_note.gate"] for k in (1, 2, 3)], axis=1)
+    assert list(gate[99]) == [0, 0, 0] and list(gate[100]) == [1, 0, 0] and list(gate[102]) == [1, 1, 1]
+    assert list(gate[150]) == [0, 1, 1] and list(gate[151]) == [1, 0, 1]       # 72 steals voice 1
+    assert list(gate[199]) == [1, 1, 1] and r.probes["key2_note.freq"][199] == pytest.approx(440 * 2 ** (5 / 12))
+    np.testing.assert_array_equal(r.audio[:, 0], gate.sum(axis=1))             # the voices' gates sum
