@@ -29,7 +29,7 @@ from .source import LDict, LList, line_of
 from .validate import _describe
 
 SECTION = "voices"
-DEFAULT_PREFIX = SECTION[:1]     # v1_NAME, v2_NAME, …
+DEFAULT_PREFIX = "v"     # v1_NAME, v2_NAME, … (a name prefix, not the port named v)
 MAX_VOICES = 128
 # blocks and connections the copies may add, checked before copying: a small file must not
 # become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
