@@ -86,10 +86,15 @@ def _open_session(args, patch, choices):
 
 
 def _open_recorder(args, patch, choices, session, live):
-    """The Recorder of --record, each device's driver kind named in the take's header."""
+    """The Recorder of --record, each device's driver kind named in the take's header (a block
+    played by a controller, midi_note, midi_cc, osc_in: its device's, e.g. midi)."""
     kinds = {name: (choices[name].driver if name in choices else spec.get("driver", "simulated"))
              for name, spec in patch.devices.items()}
     kinds.update({d.name: "live audio input" for d in live})
+    for name, driver in session.prog.drivers.items():     # a controller block's tap: its device's kind
+        hub = getattr(driver, "hub", None)
+        if hub is not None and hub.name in kinds:
+            kinds[name] = kinds[hub.name]
     try:
         return Recorder(args.record, session, max(1, session.prog.channels), args.blocksize, kinds=kinds)
     except OSError as exc:
