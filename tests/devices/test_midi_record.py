@@ -33,6 +33,8 @@ connect:
   - amp.out -> level.in
   - cc.out -> level.gain
   - level.out -> out.ch0
+map:
+  - {param: tone.amplitude, cc: 74, min: 0.05, max: 0.5, curve: exponential}
 """
 
 POLY = """
@@ -83,7 +85,7 @@ def _messages(k):
     """The k-th burst: a chord's keys pressed and released in turn, the mod wheel moving."""
     key = KEYS[k % len(KEYS)]
     other = KEYS[(k + 1) % len(KEYS)]
-    return [[0x90, key, 40 + k % 80], [0x90, other, 100], [0xB0, 1, 1 + (7 * k) % 127],
+    return [[0x90, key, 40 + k % 80], [0x90, other, 100], [0xB0, 1, 1 + (7 * k) % 127], [0xB0, 74, (11 * k) % 128],
             [0x80, key, 0]] + ([[0x80, other, 0]] if k % 3 == 0 else [])
 
 
@@ -117,6 +119,8 @@ def test_live_midi_take_rerenders_bit_for_bit(tmp_path, write_patch, keyboard, t
     assert drivers["cc"]["kind"] == "midi" and drivers["cc"]["model"] is None
     cc = t.inputs[:, drivers["cc"]["offset"]]
     assert len(np.unique(cc)) > 3                                  # the mod wheel reached the take
+    if "map_tone_amplitude" in drivers:                            # a `map:` entry is a block like any other
+        assert len(np.unique(t.inputs[:, drivers["map_tone_amplitude"]["offset"]])) > 3
     for name in notes:                                             # so did the notes, to every voice
         assert drivers[name]["kind"] == "midi"
         off = drivers[name]["offset"]
