@@ -12,7 +12,10 @@ import time
 import numpy as np
 import pytest
 from audio_env import hapticgraph, jack_or_skip
+from hapticgraph import load as hapticgraph_load
+from hapticgraph.devices import open_drivers
 from hapticgraph.devices.record import Take
+from hapticgraph.graph.engine import render
 from hapticgraph.devices.serial_sim import SerialSim
 from scipy.io import wavfile
 
@@ -72,7 +75,7 @@ def test_serial_take_rerenders_bit_for_bit(tmp_path, write_patch, jack):
     t = Take(f"{take}.hgrec")
     assert t.header["columns"] == COLUMNS and t.frames == 44100
     info = t.header["drivers"]["dev"]
-    assert info["kind"] == "serial" and info["model"] is None
+    assert info["kind"] == "serial" and info["model"] is None and info["max_force"] == 1.0
     pos = t.inputs[:, 2]
     assert pos.max() > 0.003 and pos.min() < -0.003                 # the fader moved, frame by frame
     assert set(np.unique(t.inputs[:, 3])) == {0.0, 1.0}
@@ -83,6 +86,15 @@ def test_serial_take_rerenders_bit_for_bit(tmp_path, write_patch, jack):
     assert np.abs(heard).max() > 0.1
     replayed = _replay(tmp_path, path, take, jack.env)
     assert np.array_equal(replayed.view(np.uint32), heard.view(np.uint32))
+    # a device entry `driver: replay` feeds the device from the take; what it would have sent is
+    # clamped to the bound the serial device had (the take's), as the device received it
+    replay = hapticgraph_load(write_patch(PATCH.replace(
+        '{driver: serial, profile: fader_1dof, port: "PORT", max_force: 1.0}', "{driver: replay, file: take.hgrec, axes: [pos, touch]}"),
+        name="replay.yaml"))
+    drivers = open_drivers(replay)
+    render(replay, seconds=t.seconds, drivers=drivers)
+    sent = drivers["dev"].force_sent()
+    assert np.abs(sent).max() == 1.0 and np.abs(force).max() > 1.0
 
 
 def _wait_for_rows(proc, hgrec, rows):
