@@ -79,6 +79,9 @@ def take_header(session, channels, blocksize, kinds=None):
                            "offset": offset, "model": _model_of(d),
                            "block_values": _jsonable(d.block_values()),
                            "input": device in sig["inputs"]}
+        bound = getattr(d, "max_force", None)      # a device's force bound (serial, HID): data, for replay
+        if isinstance(bound, (int, float)) and 0 < bound < float("inf") and _model_of(d) is None:
+            drivers[device]["max_force"] = float(bound)
         offset += len(cols)
     columns = [[dev, c] for dev, c in prog.ext_columns]
     columns += [[dev, FORCE_COLUMN] for dev, _ in prog.device_records]

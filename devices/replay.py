@@ -20,7 +20,8 @@ class ReplayDriver(Driver):
         self.columns = tuple(info["columns"])
         self.block_type = MODELS.get(take.model_of(name, info))
         self.values = dict(info.get("block_values") or {})
-        self.max_force = float(self.values.get("max_force", math.inf))   # a HID device's: not in the take
+        # the bound the device clamped to: its model's value, or the take's (serial, HID devices)
+        self.max_force = float(self.values.get("max_force", info.get("max_force", math.inf)))
         off = int(info["offset"])
         self.signal = np.ascontiguousarray(take.inputs[:, off:off + len(self.columns)])
         self.hold = not info.get("input", False)

@@ -18,6 +18,8 @@ identical on replay: its columns, the device model it substitutes for the patch'
 as data (`"model"`: the name of the driver kind that simulates the device, or null; looked up in
 the fixed table MODELS — a take never names a module, and reading one imports nothing) and that
 model's internal values (mass, grip, max_force), each checked against the model's declared range.
+A device with no model (serial, HID) keeps the bound its driver clamped every force to as
+`"max_force"` (newtons), so a replay's forces are the ones the device received.
 
 Reading a take checks everything before anything runs: the magic and version, a header length
 within MAX_HEADER bytes and the file, JSON (no NaN), the header against HEADER_SCHEMA, columns
@@ -86,7 +88,8 @@ HEADER_SCHEMA = {
                                        "offset": {"type": "integer", "minimum": 0, "maximum": MAX_COLUMNS},
                                        "block_values": {"type": "object",
                                                         "additionalProperties": {"type": "number"}},
-                                       "input": {"type": "boolean"}}}},
+                                       "input": {"type": "boolean"},
+                                       "max_force": {"type": "number", "exclusiveMinimum": 0}}}},
         "audio": {"type": "object"},
         "blocksize": {"type": "integer"},
     },

@@ -5,6 +5,7 @@ import sys
 
 from .cli_common import UsageError, audio_channels, device_choices
 from .devices import DeviceError, audio, check_choices, open_drivers
+from .devices.kinds import input_kind
 from .devices.record import Recorder
 from .devices.replay import replay_drivers
 from .graph.patch import load
@@ -86,10 +87,16 @@ def _open_session(args, patch, choices):
 
 
 def _open_recorder(args, patch, choices, session, live):
-    """The Recorder of --record, each device's driver kind named in the take's header."""
+    """The Recorder of --record, each device's driver kind named in the take's header (a block
+    played by a controller, midi_note, midi_cc, osc_in: its device's, e.g. midi; an audio_in
+    block: live audio input or audio input); a take names no code."""
     kinds = {name: (choices[name].driver if name in choices else spec.get("driver", "simulated"))
              for name, spec in patch.devices.items()}
     kinds.update({d.name: "live audio input" for d in live})
+    for inst in patch.blocks.values():      # a block fed from outside: its device's kind, else its own
+        feeder = input_kind(inst.cls)
+        if feeder is not None and inst.name not in kinds:
+            kinds[inst.name] = kinds.get(inst.values.get("device"), feeder.name)
     try:
         return Recorder(args.record, session, max(1, session.prog.channels), args.blocksize, kinds=kinds)
     except OSError as exc:

@@ -1,19 +1,20 @@
 """`play --record` captures controller input (here OSC over loopback UDP, received live while
-playing): the take re-renders offline (`run --replay`) bit for bit."""
+playing in real time through a `jackd -d dummy` server): the take re-renders offline (`run
+--replay`) bit for bit."""
 import socket
 import subprocess
 import sys
 import time
 
 import numpy as np
-from audio_env import alsa_file_env, hapticgraph
+from audio_env import hapticgraph, jack_or_skip
 from hapticgraph.devices.record import Take
 from pythonosc.udp_client import SimpleUDPClient
 from scipy.io import wavfile
 
 PATCH = """
 hapticgraph: 1
-rate: 8000
+rate: 44100
 devices:
   ctl: {driver: osc, port: PORT}
 blocks:
@@ -37,17 +38,19 @@ def _free_port():
 
 
 def test_osc_take_rerenders_bit_for_bit(tmp_path, write_patch):
-    env, _ = alsa_file_env(tmp_path)
+    jack = jack_or_skip(tmp_path)
+    env = jack.env
     port = _free_port()
     path = write_patch(PATCH.replace("PORT", str(port)))
     take = tmp_path / "take"
-    proc = subprocess.Popen([sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "3",
-                             "--blocksize", "256", "--record", take], env=env, text=True,
+    proc = subprocess.Popen([sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "2",
+                             "--blocksize", "256",
+                             "--audio-device", "system", "--record", take], env=env, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     client = SimpleUDPClient("127.0.0.1", port)
     try:
         k = 0
-        while proc.poll() is None:         # the file sound card plays faster than real time: keep sending
+        while proc.poll() is None:         # JACK paces play: keep sending until it has recorded and exited
             client.send_message("/level", 1.0 + k % 3)
             client.send_message("/pitch", (k % 5) / 4)
             k += 1
@@ -55,8 +58,10 @@ def test_osc_take_rerenders_bit_for_bit(tmp_path, write_patch):
         _, err = proc.communicate(timeout=120)
     finally:
         proc.kill()
+        jack.stop()
     assert proc.returncode == 0, err
     t = Take(f"{take}.hgrec")
+    assert t.header["drivers"]["level"]["kind"] == "osc"             # the device's driver kind, not code
     level = t.inputs[:, t.header["drivers"]["level"]["offset"]]
     assert set(np.unique(level)) >= {0.0, 1.0, 2.0, 3.0}         # the messages reached the take
     _, heard = wavfile.read(f"{take}.wav")
