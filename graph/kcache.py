@@ -257,6 +257,8 @@ def _module(name, source, filename):
 
 def _dispatcher(module, cached):
     import numba
+    from .numba_start import start
+    start()
     fn = numba.njit(nogil=True)(module.kernel)
     if cached:
         fn._cache = _pinned_cache(module.kernel)

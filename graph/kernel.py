@@ -26,6 +26,7 @@ import time
 from ..blocks.core import register_helpers
 from .errors import PatchError
 from .ir import KernelSourceError, ident
+from .numba_start import start as start_numba
 from .kcache import MANIFEST, _compile, cache_dir, kernel_key, usable_cache_dir, verified  # noqa: F401
 from .program import Program
 
@@ -61,6 +62,7 @@ def jit(fn):
     d = _jitted.get(fn)
     if d is None:
         import numba
+        start_numba()
         register_helpers()
         d = _jitted[fn] = numba.njit(fn, cache=False, inline="always")
     return d
@@ -182,8 +184,9 @@ class CompiledKernel:
 
     def __init__(self, prog: Program, label=None, diagnose=True):
         import numpy as np
-        register_helpers()
         start = time.perf_counter()
+        start_numba()
+        register_helpers()
         self.prog = prog
         source, fns = generate(prog)
         self.source = source
