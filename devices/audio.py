@@ -112,11 +112,12 @@ class Player:
 
     `device`/`input_device`: PortAudio indices (None: default); `latency`: 'low', 'high' or
     seconds; `seconds`: stop after exactly that many samples (None: until Ctrl-C or a stop);
-    `recorder`: a hapticgraph.devices.record.Recorder; `fade`: the mute ramp in seconds.
+    `recorder`: a hapticgraph.devices.record.Recorder; `fade`: the mute ramp in seconds;
+    `probe_out`: a hapticgraph.devices.osc.ProbeSender fed the session's probes after each block.
     """
 
     def __init__(self, session, device=None, blocksize=128, latency="low", input_device=None,
-                 seconds=None, recorder=None, fade=0.005, out_channels=None):
+                 seconds=None, recorder=None, fade=0.005, out_channels=None, probe_out=None):
         self.sd = sounddevice()
         self.rate = session.rate
         self.blocksize = int(blocksize)
@@ -127,6 +128,10 @@ class Player:
         self.pending = None
         self.swapped = threading.Event()
         self.recorder = recorder
+        self.probe_out = probe_out
+        if probe_out is not None:
+            prog = session.prog
+            probe_out.start(self.rate, prog.channels, [label for label, _ in prog.records[prog.channels:session.forces]], None)
         self.remaining = None if seconds is None else int(round(seconds * self.rate))
         self.nfade = max(1, int(round(fade * self.rate)))
         self.ramp = 1.0 - np.arange(1, self.nfade + 1) / self.nfade      # ends at exactly 0
@@ -271,6 +276,8 @@ class Player:
         if rec_ is not None:
             rec_.push_inputs(session.ext[:n], rec[:, b.f0:])
             rec_.push_audio(out)
+        if self.probe_out is not None:
+            self.probe_out.write(rec)
         self.frames_done += n
         if self.remaining is not None:
             self.remaining -= n
@@ -348,6 +355,8 @@ class Player:
             self.bound.session.stop()
             if self.recorder is not None:
                 self.recorder.close()
+            if self.probe_out is not None:
+                self.probe_out.close()
         if self.error is not None:
             raise self.error
         return Report(self)

@@ -11,8 +11,9 @@ audio block like a live MIDI event (hapticgraph.devices.events). An osc_in block
 and 0; other arguments are ignored.
 
 OSC out: `ProbeSender(sink, host, port, rate)` wraps a sink of hapticgraph.graph.engine.stream (or
-is used alone) and sends each probe's latest value as `/BLOCK/PORT value` at `rate` messages per
-second of the patch's time, so a visualizer can follow the model.
+is used alone, as `play --probe P --osc-out HOST:PORT --osc-rate R` does) and sends each probe's
+value as `/BLOCK/PORT value` at `rate` messages per second of the patch's time, so a visualizer
+can follow the model.
 """
 import threading
 
@@ -80,13 +81,22 @@ class OscTap(Tap):
 class ProbeSender:
     """Sends the probes of a stream as OSC (`/BLOCK/PORT value`, one message per probe) to
     host:port, `rate` times per second of patch time (the value at each tick), then hands the
-    block on to `sink` if one is given."""
+    block on to `sink` if one is given.
+
+    `write` only picks the values: a thread of its own builds and sends the messages, so the
+    audio callback of `play` never waits on the network (python-osc's SimpleUDPClient). `close()`
+    sends what is queued and stops the thread."""
 
     def __init__(self, sink=None, host="127.0.0.1", port=9001, rate=30.0):
+        import queue
+
         from pythonosc.udp_client import SimpleUDPClient
         self.sink, self.client, self.every = sink, SimpleUDPClient(host, int(port)), None
         self.send_rate = float(rate)
         self.sent = 0
+        self.queue = queue.SimpleQueue()
+        self.thread = threading.Thread(target=self._send_loop, name="osc-out", daemon=True)
+        self.thread.start()
 
     def start(self, rate, channels, probes, total):
         self.channels, self.addresses = channels, ["/" + p.replace(".", "/") for p in probes]
@@ -95,19 +105,46 @@ class ProbeSender:
             self.sink.start(rate, channels, probes, total)
 
     def write(self, block):
-        n = block.shape[0]
+        n, first, last = block.shape[0], self.channels, self.channels + len(self.addresses)
         while self.next < self.t + n:
-            row = block[self.next - self.t]
-            for k, address in enumerate(self.addresses):
-                self.client.send_message(address, float(row[self.channels + k]))
+            self.queue.put(block[self.next - self.t, first:last].tolist())
             self.sent += 1
             self.next += self.every
         self.t += n
         if self.sink is not None:
             self.sink.write(block)
 
+    def _send_loop(self):
+        while True:
+            values = self.queue.get()
+            if values is None:
+                return
+            for address, value in zip(self.addresses, values):
+                try:
+                    self.client.send_message(address, float(value))
+                except OSError:
+                    pass          # nobody listening, or the network went away: the model plays on
+
+    def close(self):
+        if self.thread.is_alive():
+            self.queue.put(None)
+            self.thread.join(timeout=5.0)
+
     def result(self, streamed):
+        self.close()
         return self.sink.result(streamed) if self.sink is not None else None
 
 
-__all__ = ["OscHub", "OscTap", "ProbeSender"]
+def parse_target(text):
+    """`--osc-out`'s HOST:PORT (or PORT alone: this machine) as (host, port); ValueError if not."""
+    host, _, port = str(text).rpartition(":")
+    try:
+        number = int(port)
+    except ValueError:
+        raise ValueError(f"--osc-out {text!r}: expected HOST:PORT or PORT (e.g. 127.0.0.1:9001)") from None
+    if not 0 < number < 65536:
+        raise ValueError(f"--osc-out {text!r}: the port must be from 1 to 65535")
+    return host or "127.0.0.1", number
+
+
+__all__ = ["OscHub", "OscTap", "ProbeSender", "parse_target"]

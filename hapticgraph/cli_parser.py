@@ -77,7 +77,8 @@ def _add_play(sub):
                     ["hapticgraph play patches/karplus_strong.yaml --seconds 2",
                      "hapticgraph play my_string.yaml --device finger=hid,profile=haptic_1dof --blocksize 64",
                      "hapticgraph play my_string.yaml --record take --watch",
-                     "hapticgraph play patches/cymatic_sheet.yaml --console"])
+                     "hapticgraph play patches/cymatic_sheet.yaml --console",
+                     "hapticgraph play patches/fig8_pluck_damp.yaml --probe finger.x --osc-out 127.0.0.1:9001"])
     play.add_argument("patch")
     play.add_argument("--audio-device", metavar="D", help="output device: index or (part of) its name "
                       "(see `hapticgraph devices`; default: the system's default)")
@@ -96,6 +97,12 @@ def _add_play(sub):
                            "lock/unlock/cut NAME[i, j] (lattices then run on their editable CSR path)")
     play.add_argument("--watch", action="store_true", help="reload the patch when its file changes, keeping "
                       "the state of every block that did not change")
+    play.add_argument("--probe", action="append", default=[], metavar="BLOCK.PORT",
+                      help="a port sent by --osc-out as /BLOCK/PORT (repeatable)")
+    play.add_argument("--osc-out", metavar="[HOST:]PORT",
+                      help="send the --probe values over OSC (UDP) to HOST:PORT (default host: this machine)")
+    play.add_argument("--osc-rate", type=float, default=30.0, metavar="HZ",
+                      help="messages per probe per second of patch time (default 30)")
     _overrides(play)
     _device_option(play)
     play.add_argument("--fade", type=float, default=0.005, metavar="SECONDS", help=argparse.SUPPRESS)

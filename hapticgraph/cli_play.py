@@ -34,7 +34,8 @@ def cmd_play(args):
     recorder = _open_recorder(args, patch, choices, session, live) if args.record else None
     try:
         player = audio.Player(session, device=out_dev, blocksize=args.blocksize, latency=latency,
-                              input_device=in_dev, seconds=args.seconds, fade=args.fade, recorder=recorder)
+                              input_device=in_dev, seconds=args.seconds, fade=args.fade, recorder=recorder,
+                              probe_out=_probe_out(args))
     except audio.AudioError as exc:
         if recorder is not None:
             recorder.close()
@@ -52,7 +53,32 @@ def _check_options(args):
         raise UsageError("--seconds must be positive")
     if not 0 < args.fade <= 1:
         raise UsageError("--fade must be in (0, 1] seconds")
+    if args.probe and not args.osc_out:
+        raise UsageError("--probe in play names what --osc-out sends; give --osc-out [HOST:]PORT too "
+                         "(to keep probes in a file, render with `hapticgraph run --probe`)")
+    if args.osc_out and not args.probe:
+        raise UsageError("--osc-out sends probes: name at least one with --probe BLOCK.PORT")
+    if not 0 < args.osc_rate <= 1000:
+        raise UsageError(f"--osc-rate {args.osc_rate:g}: expected messages per second in (0, 1000]")
+    if args.osc_out:
+        from .devices.osc import parse_target
+        try:
+            args.osc_target = parse_target(args.osc_out)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
     return _parse_latency(args.latency)
+
+
+def _probe_out(args):
+    """--osc-out's ProbeSender (sending on a thread of its own), or None."""
+    if not args.osc_out:
+        return None
+    from .devices.osc import ProbeSender
+    host, port = args.osc_target
+    try:
+        return ProbeSender(None, host, port, rate=args.osc_rate)
+    except OSError as exc:
+        raise UsageError(f"--osc-out {args.osc_out!r}: {exc.strerror or exc}") from None
 
 
 def _parse_latency(text):
@@ -80,7 +106,7 @@ def _open_session(args, patch, choices):
             drivers = open_drivers(patch, choices, live_input=audio.LiveInput.for_block)
         live = [d for d in drivers.values() if isinstance(d, audio.LiveInput)]
         in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
-        session = audio.play_session(patch, drivers, args.blocksize, editable=args.console)
+        session = audio.play_session(patch, drivers, args.blocksize, probes=args.probe, editable=args.console)
     except (PlanError, DeviceError, audio.AudioError) as exc:
         raise UsageError(str(exc)) from None
     return session, live, out_dev, in_dev
@@ -113,7 +139,8 @@ def _start_watcher(args, player, choices):
         new_patch = load(args.patch, overrides=args.overrides)
         drivers, opened, unused = audio.reload_drivers(old.prog.patch, new_patch, old.prog.drivers, choices,
                                                        live_input=audio.LiveInput.for_block)
-        return audio.play_session(new_patch, drivers, args.blocksize, editable=args.console), opened, unused
+        return (audio.play_session(new_patch, drivers, args.blocksize, probes=args.probe, editable=args.console),
+                opened, unused)
     return audio.Watcher(player, args.patch, make_session).start()
 
 
