@@ -219,10 +219,17 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--seconds", type=float, default=None, help="length of each live run")
+    ap.add_argument("--sheet", action="append", default=[], metavar="AxB",
+                    help="play only these sheets (repeatable), e.g. --sheet 100x100")
+    ap.add_argument("--runs", type=int, default=1, help="play each sheet this many times (a soak: "
+                    "--sheet 100x100 --runs 5 --seconds 60); part 2 is skipped when --sheet is given")
     args = ap.parse_args(argv)
     sizes = [(10, 10), (32, 32), (71, 71), (100, 100), (141, 141), (173, 173), (224, 224), (316, 316)]
     if args.quick:
         sizes = [(10, 10), (100, 100), (316, 316)]
+    if args.sheet:
+        sizes = [tuple(int(x) for x in s.lower().split("x")) for s in args.sheet]
+    sizes = [size for size in sizes for _ in range(max(1, args.runs))]
     seconds = args.seconds or (2.0 if args.quick else 4.0)
     print(f"part 1: sheets under jackd -d dummy, 64-frame blocks at 44.1 kHz, {seconds:g} s each")
     rows = headroom(sizes, seconds)
@@ -237,6 +244,8 @@ def main(argv=None):
         ok = [r for r in rows if r["keeps"]]
         if ok:
             print(f"\nlargest that keeps up: {ok[-1]['cells']:,} cells ({ok[-1]['shape']})")
+    if args.sheet:
+        return 0
     print("\npart 2: per-sample servo loop (fig7_bowed_string.yaml, blocks of 1 sample, device from a buffer)")
     s = servo(1.0 if args.quick else 5.0)
     print(f"  free-running: {s['free_rate']:,.0f} samples/s ({1e6 / s['free_rate']:.1f} µs per sample)")
