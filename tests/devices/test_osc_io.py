@@ -1,6 +1,5 @@
 """OSC over loopback UDP (python-osc, no mock): osc_in and `map: osc:` follow the messages sent
 to the device's port; ProbeSender sends probes at the chosen rate of patch time."""
-import threading
 import time
 
 import numpy as np
@@ -8,6 +7,7 @@ import pytest
 from hapticgraph.devices import open_drivers
 from hapticgraph.devices.osc import ProbeSender
 from hapticgraph.graph.engine import ArraySink, Session, stream
+from osc_env import osc_listener
 from pythonosc.dispatcher import Dispatcher
 from pythonosc.osc_server import BlockingOSCUDPServer
 from pythonosc.udp_client import SimpleUDPClient
@@ -75,22 +75,10 @@ def test_port_in_use_is_a_clear_error(write_patch):
 
 
 def test_probe_sender_rate(write_patch):
-    got = []
-    dispatcher = Dispatcher()
-    dispatcher.map("/src/out", lambda address, value: got.append(value))
-    dispatcher.map("/amp/out", lambda address, value: got.append(-value))
-    server = BlockingOSCUDPServer(("127.0.0.1", 0), dispatcher)
-    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.02}, daemon=True)
-    thread.start()
-    try:
+    with osc_listener("/src/out", "/amp/out") as osc:
         patch = hapticgraph.load(write_patch(PATCH))
-        sender = ProbeSender(ArraySink(), "127.0.0.1", server.server_address[1], rate=100.0)
+        sender = ProbeSender(ArraySink(), "127.0.0.1", osc.port, rate=100.0)
         stream(patch, 0.5, sender, probes=["src.out", "amp.out"], drivers=open_drivers(patch), chunk=300)
-        deadline = time.monotonic() + 10
-        while len(got) < 100 and time.monotonic() < deadline:
-            time.sleep(0.01)
-    finally:
-        server.shutdown()
-        server.server_close()
+        osc.wait_for(100)
     assert sender.sent == 50                 # 0.5 s of patch time at 100 per second
-    assert got.count(1.0) == 50 and got.count(-1.0) == 50
+    assert osc.got["/src/out"] == [1.0] * 50 and osc.got["/amp/out"] == [1.0] * 50

@@ -10,6 +10,7 @@ import time
 import numpy as np
 from audio_env import hapticgraph, jack_or_skip
 from hapticgraph.devices.record import Take
+from osc_env import osc_listener
 from pythonosc.udp_client import SimpleUDPClient
 from scipy.io import wavfile
 
@@ -89,32 +90,22 @@ def test_play_sends_probes_over_osc(tmp_path, write_patch):
     """`play --probe P --osc-out HOST:PORT --osc-rate R`: /BLOCK/PORT carries the probe's value at
     every R-th of a second of patch time (each value as the offline render has it, in OSC's
     32-bit float), sent while playing in real time."""
-    from pythonosc.dispatcher import Dispatcher
-    from pythonosc.osc_server import BlockingOSCUDPServer
-    import threading
     jack = jack_or_skip(tmp_path)
-    got = []
-    dispatcher = Dispatcher()
-    dispatcher.map("/tone/out", lambda address, value: got.append(value))
-    server = BlockingOSCUDPServer(("127.0.0.1", 0), dispatcher)
-    threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.02}, daemon=True).start()
     path = write_patch(PROBED)
-    try:
-        r = subprocess.run([sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "1",
-                            "--audio-device", "system", "--probe", "tone.out",
-                            "--osc-out", f"127.0.0.1:{server.server_address[1]}", "--osc-rate", "50"],
-                           env=jack.env, text=True, capture_output=True, timeout=120)
-        deadline = time.monotonic() + 5
-        while len(got) < 50 and time.monotonic() < deadline:
-            time.sleep(0.01)
-    finally:
-        jack.stop()
-        server.shutdown()
-        server.server_close()
+    with osc_listener("/tone/out") as osc:
+        try:
+            r = subprocess.run([sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "1",
+                                "--audio-device", "system", "--probe", "tone.out",
+                                "--osc-out", f"127.0.0.1:{osc.port}", "--osc-rate", "50"],
+                               env=jack.env, text=True, capture_output=True, timeout=120)
+            osc.wait_for(50, timeout=5.0)
+        finally:
+            jack.stop()
+    got = osc.got["/tone/out"]
     assert r.returncode == 0, r.stderr
     assert len(got) == 50                                  # 1 s of patch time at 50 a second
     offline = hapticgraph(["run", path, "--seconds", "1", "--probe", "tone.out",
-                           "--out", tmp_path / "x.wav", "--quiet"], jack.env)
+                           "--out", tmp_path / "x.wav", "--quiet"], dict(os.environ))
     assert offline.returncode == 0, offline.stderr
     probe = np.load(tmp_path / "x.npz")["tone.out"]
     assert np.array_equal(np.float32(got), probe[::882].astype(np.float32))   # 44100 / 50 = 882
