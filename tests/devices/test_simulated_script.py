@@ -1,0 +1,93 @@
+"""The simulated hand's script runs inside the kernel (ScriptedHaptic): the same values as the
+driver's numpy trajectory (the columns a take records, which SimulatedHaptic replays) to the bit,
+on both engines; another script re-uses the compiled kernel; the driver's send keeps the force."""
+import numpy as np
+import pytest
+
+from hapticgraph import load, render
+from hapticgraph.devices import SimulatedDevice
+from hapticgraph.devices.script import script_segment, script_slope, script_time, script_value
+from hapticgraph.devices.simulated import SimulatedHaptic
+from hapticgraph.graph import kernel
+
+# a jump (two keyframes at 0.05 s), keyframes without `knob`, a `pedal` on a keyframe of its own,
+# a script of 0.13 s that repeats: 0.2 s crosses the wrap at 2,600 samples
+SCRIPT = ("[{t: 0.0, x: -0.01, knob: 0.5}, {t: 0.02, x: 0.004}, {t: 0.05, x: 0.006, knob: -1.0}, "
+          "{t: 0.05, x: 0.0}, {t: 0.0901, x: 0.003, pedal: 2.0}, {t: 0.13, x: -0.01, knob: 0.25}]")
+PATCH = """
+hapticgraph: 1
+rate: 20000
+devices:
+  finger: {{driver: simulated, max_force: 2.0, hand_stiffness: 900.0, script: {script}, hold: {hold}}}
+blocks:
+  pick: {{type: haptic, device: finger}}
+  spring: {{type: spring_damper, k: 300.0, R: 0.5}}
+  g: {{type: gain, gain: 1.5}}
+connect:
+  - pick.x -> spring.x1
+  - pick.v -> spring.v1
+  - spring.reaction -> pick.force
+  - pick.knob -> g.in
+  - pick.pedal -> g.gain
+"""
+PROBES = ["pick.x", "pick.v", "pick.knob", "pick.pedal", "g.out", "spring.force"]
+
+
+class ColumnsDevice(SimulatedDevice):
+    """The hand as columns the driver fills in numpy (what a take records), read by SimulatedHaptic."""
+    block_type = SimulatedHaptic
+
+    def block_values(self):
+        return self.take_values()
+
+    def start(self, rate):
+        super().start(rate)
+        self.recording = True
+
+
+def _patch(write_patch, hold="false", script=SCRIPT, name="p.yaml"):
+    return load(write_patch(PATCH.format(script=script, hold=hold), name))
+
+
+@pytest.mark.parametrize("hold", ["false", "true"])
+def test_the_kernel_follows_the_script_as_the_columns_do_to_the_bit(write_patch, hold):
+    p = _patch(write_patch, hold)
+    inside = render(p, 0.4, probes=PROBES, chunk=1000)
+    columns = render(p, 0.4, probes=PROBES, chunk=1000,
+                     drivers={"finger": ColumnsDevice("finger", p.devices["finger"])})
+    for probe in PROBES:
+        np.testing.assert_array_equal(inside.probes[probe], columns.probes[probe], err_msg=probe)
+    knob = inside.probes["pick.knob"]
+    assert knob[0] == 0.5 and knob[1000] == -1.0 and np.ptp(knob) > 1.0
+    interpreted = render(p, 0.03, probes=PROBES, engine="python")
+    for probe in PROBES:
+        np.testing.assert_array_equal(interpreted.probes[probe], inside.probes[probe][:600], err_msg=probe)
+
+
+def test_the_helpers_give_the_drivers_trajectory_to_the_bit():
+    spec = {"script": [{"t": 0.0, "x": 0.0, "a": 1.0}, {"t": 0.3, "x": 1.0}, {"t": 0.3, "x": 0.5},
+                       {"t": 0.7, "x": -2.0, "a": 3.0}, {"t": 1.1, "x": 0.1}], "hold": False}
+    for hold in (False, True):
+        d = SimulatedDevice("f", {**spec, "hold": hold})
+        d.start(441.0)
+        expected = d._compute(-3, 2000)      # from before the script's start, over several repeats
+        s = d.script
+        rows = np.empty_like(expected)
+        j = -1.0
+        for i in range(2000):
+            x = script_time(i - 3, 441.0, s["repeat"])
+            j = script_segment(x, s["times"], j)
+            rows[i] = [script_value(x, j, s["times"], s["tracks"], s["slopes"], 0), script_slope(j, s["slopes"]),
+                       script_value(x, j, s["times"], s["tracks"], s["slopes"], 1)]
+        np.testing.assert_array_equal(rows, expected)
+
+
+def test_another_script_reuses_the_compiled_kernel(tmp_path, write_patch, monkeypatch):
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("HAPTICGRAPH_CACHE", str(cache))
+    monkeypatch.setattr(kernel, "_loaded", {})
+    first = render(_patch(write_patch), 0.01, probes=["pick.x"])
+    other = "[{t: 0.0, x: 0.2, knob: 3.0}, {t: 1.0, x: 0.1, pedal: 1.0}, {t: 2.0, x: 0.0}, {t: 2.5, x: 0.3}]"
+    second = render(_patch(write_patch, hold="true", script=other, name="q.yaml"), 0.01, probes=["pick.x"])
+    assert len([e for e in cache.iterdir() if e.name.startswith("kernel_")]) == 1
+    assert first.probes["pick.x"][0] == -0.01 and second.probes["pick.x"][0] == 0.2
