@@ -16,7 +16,6 @@ Its `max_force` (default 4 N) is at most MAX_FORCE = 50 N, the bound this model 
 HID profile states its device's: about what the strongest grounded desktop haptic devices give at
 their peak, so a patch tuned on the simulation asks nothing absurd of a real device.
 """
-import collections
 import math
 
 import numpy as np
@@ -157,8 +156,7 @@ class SimulatedDevice(Driver):
 
     def start(self, rate):
         self.rate = float(rate)
-        self.sent = collections.deque()
-        self._kept = 0
+        self._ring, self._count = None, 0
         self._cache = None
 
     def hand(self, t):
@@ -212,12 +210,22 @@ class SimulatedDevice(Driver):
     KEEP = 1 << 22   # samples of sent force kept for inspection (about 95 s at 44.1 kHz)
 
     def send(self, t0, force):
-        # what a real device would receive: clamped, NaN-free; the latest KEEP samples are kept
-        sent = np.clip(np.nan_to_num(force, nan=0.0, posinf=0.0, neginf=0.0), -self.max_force, self.max_force)
-        self.sent.append(sent)
-        self._kept = getattr(self, "_kept", 0) + len(sent)
-        while self._kept - len(self.sent[0]) >= self.KEEP:
-            self._kept -= len(self.sent.popleft())
+        # the latest KEEP samples, as sent: one copy into a ring (its pages touched as it fills)
+        n = len(force)
+        if self._ring is None:
+            self._ring = np.empty(self.KEEP)
+        at = self._count % self.KEEP
+        k = min(n, self.KEEP - at)
+        self._ring[at:at + k] = force[:k]
+        self._ring[:n - k] = force[k:]
+        self._count += n
 
     def force_sent(self):
-        return np.concatenate(self.sent) if self.sent else np.zeros(0)
+        """The force the device received, sample by sample (the latest KEEP): clamped to
+        ±max_force, NaN and infinities as zero, as a device's driver sends it."""
+        kept = min(self._count, self.KEEP)
+        if not kept:
+            return np.zeros(0)
+        at = self._count % self.KEEP
+        sent = np.concatenate((self._ring[at:], self._ring[:at])) if self._count > self.KEEP else self._ring[:kept]
+        return np.clip(np.nan_to_num(sent, nan=0.0, posinf=0.0, neginf=0.0), -self.max_force, self.max_force)

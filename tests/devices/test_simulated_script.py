@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from hapticgraph import load, render
-from hapticgraph.devices import SimulatedDevice
+from hapticgraph.devices import SimulatedDevice, open_drivers
 from hapticgraph.devices.script import script_segment, script_slope, script_time, script_value
 from hapticgraph.devices.simulated import SimulatedHaptic
 from hapticgraph.graph import kernel
@@ -91,3 +91,17 @@ def test_another_script_reuses_the_compiled_kernel(tmp_path, write_patch, monkey
     second = render(_patch(write_patch, hold="true", script=other, name="q.yaml"), 0.01, probes=["pick.x"])
     assert len([e for e in cache.iterdir() if e.name.startswith("kernel_")]) == 1
     assert first.probes["pick.x"][0] == -0.01 and second.probes["pick.x"][0] == 0.2
+
+
+def test_force_sent_is_what_a_device_receives_and_keeps_the_latest(write_patch, monkeypatch):
+    p = _patch(write_patch)
+    monkeypatch.setattr(SimulatedDevice, "KEEP", 3000)
+    drivers = open_drivers(p)
+    r = render(p, 0.4, probes=["spring.reaction"], chunk=1024, drivers=drivers)
+    sent = drivers["finger"].force_sent()
+    np.testing.assert_array_equal(sent, np.clip(r.probes["spring.reaction"][-3000:], -2.0, 2.0))
+    d = SimulatedDevice("f", {"max_force": 2.0})
+    d.start(100.0)
+    assert d.force_sent().shape == (0,)
+    d.send(0, np.array([np.nan, np.inf, -np.inf, 5.0, -5.0, 1.5]))
+    assert d.force_sent().tolist() == [0.0, 0.0, 0.0, 2.0, -2.0, 1.5]
