@@ -6,8 +6,8 @@ import pytest
 
 from hapticgraph import load, render
 from hapticgraph.devices import SimulatedDevice, open_drivers
-from hapticgraph.devices.script import script_segment, script_slope, script_time, script_value
-from hapticgraph.devices.simulated import SimulatedHaptic
+from hapticgraph.devices.script import script_time, split_length
+from hapticgraph.devices.simulated import ScriptedHaptic, SimulatedHaptic
 from hapticgraph.graph import kernel
 
 # a jump (two keyframes at 0.05 s), keyframes without `knob`, a `pedal` on a keyframe of its own,
@@ -64,22 +64,37 @@ def test_the_kernel_follows_the_script_as_the_columns_do_to_the_bit(write_patch,
         np.testing.assert_array_equal(interpreted.probes[probe], inside.probes[probe][:600], err_msg=probe)
 
 
-def test_the_helpers_give_the_drivers_trajectory_to_the_bit():
+def test_the_models_output_gives_the_drivers_trajectory_to_the_bit():
+    """ScriptedHaptic.output, as the interpreter calls it, against the driver's numpy columns."""
     spec = {"script": [{"t": 0.0, "x": 0.0, "a": 1.0}, {"t": 0.3, "x": 1.0}, {"t": 0.3, "x": 0.5},
-                       {"t": 0.7, "x": -2.0, "a": 3.0}, {"t": 1.1, "x": 0.1}], "hold": False}
+                       {"t": 0.7, "x": -2.0, "a": 3.0}, {"t": 1.1, "x": 0.1}]}
     for hold in (False, True):
         d = SimulatedDevice("f", {**spec, "hold": hold})
         d.start(441.0)
         expected = d._compute(-3, 2000)      # from before the script's start, over several repeats
-        s = d.script
+        s, axis = d.script, np.zeros(1)
         rows = np.empty_like(expected)
-        j = -1.0
+        key = -1.0
         for i in range(2000):
-            x = script_time(i - 3, 441.0, s["repeat"])
-            j = script_segment(x, s["times"], j)
-            rows[i] = [script_value(x, j, s["times"], s["tracks"], s["slopes"], 0), script_slope(j, s["slopes"]),
-                       script_value(x, j, s["times"], s["tracks"], s["slopes"], 1)]
+            _, _, x, v, key = ScriptedHaptic.output(0.0, 0.0, i - 3, 441.0, s["repeat"], s["repeat_hi"],
+                                                    s["repeat_lo"], s["times"], s["tracks"], s["slopes"], key, 1,
+                                                    axis)
+            rows[i] = x, v, axis[0]
         np.testing.assert_array_equal(rows, expected)
+
+
+@pytest.mark.parametrize("length", [3.2, 0.13, 1 / 3, 1.6, 0.001, 97.123456789, 2.0])
+@pytest.mark.parametrize("rate", [19000.0, 44100.0, 48000.0, 96000.0, 8000.0, 12345.678])
+def test_the_repeated_scripts_time_is_np_mods_to_the_bit(length, rate):
+    """script_time wraps without calling fmod; every sample of a long run, and large counters."""
+    rng = np.random.default_rng(7)
+    hi, lo = split_length(length)
+    assert hi + lo == length
+    t = np.concatenate([np.arange(0, 3000), rng.integers(0, 10 ** 10, 3000),
+                        np.round(np.arange(1, 300) * length * rate).astype(np.int64) + rng.integers(-2, 3, 299)])
+    t = t[t >= 0]
+    got = np.array([script_time(int(k), rate, length, hi, lo) for k in t])
+    np.testing.assert_array_equal(got.view(np.int64), np.mod(t / rate, length).view(np.int64))
 
 
 def test_another_script_reuses_the_compiled_kernel(tmp_path, write_patch, monkeypatch):
@@ -105,3 +120,4 @@ def test_force_sent_is_what_a_device_receives_and_keeps_the_latest(write_patch, 
     assert d.force_sent().shape == (0,)
     d.send(0, np.array([np.nan, np.inf, -np.inf, 5.0, -5.0, 1.5]))
     assert d.force_sent().tolist() == [0.0, 0.0, 0.0, 2.0, -2.0, 1.5]
+
