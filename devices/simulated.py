@@ -81,6 +81,8 @@ class ScriptedHaptic(SimulatedHaptic, name="scripted_haptic"):
     anchor_key = Out(doc="the last keyframe at or before this sample's time")
     segment = State(-1.0, doc="anchor_key of the previous sample (−1: before the first keyframe)")
     axis_values = Buffer(lambda p, fs: len(p.axes), doc="this sample's value of each axis")
+    # a reload that changes only the script keeps the device moving (hapticgraph.devices.watch)
+    keeps_state = ("times", "tracks", "slopes", "repeat", "repeat_hi", "repeat_lo")
 
     @classmethod
     def ports(cls, values):
