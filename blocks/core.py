@@ -42,7 +42,16 @@ class In(_Port):
 
 
 class Out(_Port):
-    """An output port; `name` is its public name in patches when the attribute name differs."""
+    """An output port; `name` is its public name in patches when the attribute name differs.
+
+    `element` (buffer attribute, index): the port's value is that element of one of the block's
+    buffers, which its `output` writes each sample — how a block whose outputs vary in number
+    (declared by `ports(values)`) computes them.
+    """
+
+    def __init__(self, name=None, doc="", element=None):
+        super().__init__(name, doc)
+        self.element = element
 
 
 class Param(_Declaration):

@@ -42,8 +42,9 @@ from .take import (
 
 
 def _model_of(driver):
-    """The name a take gives the model a driver substitutes (None: the patch's own block)."""
-    cls = driver.block_type
+    """The name a take gives the model a driver substitutes (None: the patch's own block): its
+    `take_type` when the model it runs is not the one that replays its columns."""
+    cls = getattr(driver, "take_type", driver.block_type)
     if cls is None:
         return None
     for name, model in MODELS.items():
@@ -77,7 +78,7 @@ def take_header(session, channels, blocksize, kinds=None):
         cols = [c for dev, c in prog.ext_columns if dev == device]
         drivers[device] = {"kind": (kinds or {}).get(device, type(d).__name__), "columns": cols,
                            "offset": offset, "model": _model_of(d),
-                           "block_values": _jsonable(d.block_values()),
+                           "block_values": _jsonable(getattr(d, "take_values", d.block_values)()),
                            "input": device in sig["inputs"]}
         bound = getattr(d, "max_force", None)      # a device's force bound (serial, HID): data, for replay
         if isinstance(bound, (int, float)) and 0 < bound < float("inf") and _model_of(d) is None:
@@ -94,6 +95,14 @@ def take_header(session, channels, blocksize, kinds=None):
         "audio": {"channels": int(channels)}, "blocksize": int(blocksize),
         "started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
     }
+
+
+def _want_columns(prog):
+    """Tell the drivers whose inputs the kernel computes itself (a simulated hand's script) to
+    fill their columns too, for the take."""
+    for d in prog.drivers.values():
+        if hasattr(d, "recording"):
+            d.recording = True
 
 
 # -- writing -------------------------------------------------------------------------------------
@@ -196,6 +205,7 @@ class Recorder:
         prog = session.prog
         self.layout = (list(prog.ext_columns), [d for d, _ in prog.device_records])
         self.header = take_header(session, channels, blocksize, kinds)
+        _want_columns(prog)
         self.nin, self.nforce = len(prog.ext_columns), len(prog.device_records)
         size = 1 << max(12, int(np.ceil(np.log2(max(1.0, ring_seconds * prog.rate)))))
         self.size, self.mask = size, size - 1
@@ -264,6 +274,8 @@ class Recorder:
         prog = session.prog
         if (list(prog.ext_columns), [d for d, _ in prog.device_records]) != self.layout:
             self.inputs_stopped = "a reload changed the patch's devices or inputs"
+        else:
+            _want_columns(prog)
 
     # the writer thread ----------------------------------------------------------------------
     def _drain(self):

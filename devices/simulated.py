@@ -6,24 +6,36 @@ anchor follows the scripted keyframes, and is pushed by the force the patch send
     m·a = k_h·(x_hand − x) + R_h·(v_hand − v) + clip(F, ±max_force)
 
 integrated with semi-implicit (symplectic) Euler inside the kernel, every sample, so the haptic
-loop is closed in simulation with the same driver interface a real device uses.
+loop is closed in simulation with the same driver interface a real device uses. The script is
+evaluated inside the kernel too (ScriptedHaptic): its keyframes reach the kernel as data
+(hapticgraph.devices.script), so the driver does nothing per block but keep the force it was
+sent, and another script re-uses the compiled kernel. A take records the hand's trajectory as
+columns (SimulatedHaptic reads them on replay), which the driver fills only while recording.
 
 Its `max_force` (default 4 N) is at most MAX_FORCE = 50 N, the bound this model states the way a
 HID profile states its device's: about what the strongest grounded desktop haptic devices give at
 their peak, so a patch tuned on the simulation asks nothing absurd of a real device.
 """
-import collections
 import math
 
 import numpy as np
 
-from ..blocks import External, Param, State
+from ..blocks import Buffer, External, Out, Param, State, helper
 from ..blocks.device import Haptic, clamp_force
 from ..graph.engine import Driver
 from .kinds import SIMULATED_MAX_FORCE, SimulatedKind
+from .script import script_data, script_point, script_time
 
 
 MAX_FORCE = SIMULATED_MAX_FORCE     # 50 N: the simulated device's bound on max_force (see the module's doc)
+
+
+@helper
+def device_step(pos, vel, force, hand_x, hand_v, hand_stiffness, hand_damping, max_force, dt_over_m, dt):
+    """One semi-implicit Euler step of the device's mass held by the hand: (pos, vel) next."""
+    f = hand_stiffness * (hand_x - pos) + hand_damping * (hand_v - vel) + clamp_force(force, max_force)
+    vel = vel + f * dt_over_m
+    return pos + vel * dt, vel
 
 
 class SimulatedHaptic(Haptic, name="simulated_haptic"):
@@ -50,9 +62,66 @@ class SimulatedHaptic(Haptic, name="simulated_haptic"):
 
     @staticmethod
     def update(pos, vel, force, hand_x, hand_v, hand_stiffness, hand_damping, max_force, dt_over_m, dt):
-        f = hand_stiffness * (hand_x - pos) + hand_damping * (hand_v - vel) + clamp_force(force, max_force)
-        vel = vel + f * dt_over_m
-        return pos + vel * dt, vel
+        return device_step(pos, vel, force, hand_x, hand_v, hand_stiffness, hand_damping, max_force, dt_over_m, dt)
+
+
+class ScriptedHaptic(SimulatedHaptic, name="scripted_haptic"):
+    """SimulatedHaptic whose hand follows its script inside the kernel: x_hand, v_hand = the keyframes at t/fs."""
+
+    times = Param([0.0], unit="s", live=False, internal=True, doc="the keyframes' times")
+    tracks = Param([0.0], live=False, internal=True, doc="the hand's x, then each axis, at every keyframe")
+    slopes = Param([0.0], live=False, internal=True, doc="each track's slope after every keyframe")
+    repeat = Param(0.0, unit="s", minimum=0.0, live=False, internal=True,
+                   doc="the script's length when it repeats, 0 when its last keyframe holds")
+    repeat_hi = Param(0.0, unit="s", live=False, internal=True, doc="repeat's leading 26 bits")
+    repeat_lo = Param(0.0, unit="s", live=False, internal=True, doc="repeat − repeat_hi")
+    # the hand this sample, for update (outputs of the model, not ports of the patch's block)
+    anchor_x = Out(doc="the hand's position [m]")
+    anchor_v = Out(doc="the hand's velocity [m/s]")
+    anchor_key = Out(doc="the last keyframe at or before this sample's time")
+    segment = State(-1.0, doc="anchor_key of the previous sample (−1: before the first keyframe)")
+    axis_values = Buffer(lambda p, fs: len(p.axes), doc="this sample's value of each axis")
+    # a reload that changes only the script keeps the device moving (hapticgraph.devices.watch)
+    keeps_state = ("times", "tracks", "slopes", "repeat", "repeat_hi", "repeat_lo")
+
+    @classmethod
+    def ports(cls, values):
+        inputs, outputs = super().ports(values)
+        for k, port in enumerate(outputs[len(cls.outputs):]):
+            port.element = ("axis_values", k)
+        return inputs, outputs
+
+    @staticmethod
+    def derive(p, fs):
+        return {"dt_over_m": 1.0 / (p.mass * fs), "dt": 1.0 / fs, "axis_count": len(p.axes)}
+
+    @staticmethod
+    def output(pos, vel, t, fs, repeat, repeat_hi, repeat_lo, times, tracks, slopes, segment, axis_count,
+               axis_values):
+        # the arrays are read here, not in a @helper: a call that takes an array costs two atomic
+        # reference counts (Fig. 7's kernel: 34 ns a sample with such calls, 24 without; 22 with
+        # the hand read from columns)
+        x = script_time(t, fs, repeat, repeat_hi, repeat_lo)
+        n = len(times)
+        j = int(segment)                  # on from the previous sample's: a step a keyframe
+        if j >= n or (j >= 0 and times[j] > x):
+            j = -1                        # time went back: the script repeats
+        while j + 1 < n and times[j + 1] <= x:
+            j += 1
+        k = min(max(j, 0), n - 1)
+        inside = 0 <= j < n - 1 and times[k] != x
+        for a in range(axis_count):
+            at = (a + 1) * n + k
+            axis_values[a] = script_point(x, times[k], tracks[at], slopes[at], inside)
+        hand_x = script_point(x, times[k], tracks[k], slopes[k], inside)
+        return pos, vel, hand_x, slopes[k] if j >= 0 else 0.0, float(j)
+
+    @staticmethod
+    def update(pos, vel, segment, force, anchor_x, anchor_v, anchor_key, hand_stiffness, hand_damping, max_force,
+               dt_over_m, dt):
+        pos, vel = device_step(pos, vel, force, anchor_x, anchor_v, hand_stiffness, hand_damping, max_force,
+                               dt_over_m, dt)
+        return pos, vel, anchor_key
 
 
 def force_limit(name, driver, value, bound, what):
@@ -66,22 +135,26 @@ def force_limit(name, driver, value, bound, what):
 
 
 class SimulatedDevice(Driver):
-    """Driver of one simulated device entry: supplies the hand's trajectory, records the force."""
+    """Driver of one simulated device entry. Its model (ScriptedHaptic) follows the script inside
+    the kernel; the driver keeps the force it was sent and, only while a take is recorded
+    (`recording`), fills the hand's trajectory into its columns for the take."""
 
-    block_type = SimulatedHaptic
+    block_type = ScriptedHaptic
+    take_type = SimulatedHaptic      # what a take names: the model that reads the trajectory's columns
 
     def __init__(self, name, spec, axes=None):
         """`axes`: the device's axes as the patch sees them (default: from `spec`), when the
         entry was written for another driver (a HID profile's axes then come in as zeros)."""
         self.name = name
         script = spec.get("script") or [{"t": 0.0, "x": 0.0}]
-        self.times = np.array([float(k["t"]) for k in script])
-        self.xs = self._track(script, "x")
         # other axes and buttons: keyframes that carry the key are interpolated, others skipped
         self.axes = list(axes) if axes is not None else SimulatedKind().axes(spec)
-        self.axis_tracks = [self._track(script, a) for a in self.axes]
-        self.columns = ("hand_x", "hand_v") + tuple(self.axes)
         self.hold = bool(spec.get("hold", True))
+        self.script = script_data(script, self.axes, self.hold)
+        self.times = self.script["times"]
+        rows = self.script["tracks"].reshape(1 + len(self.axes), len(self.times))
+        self.xs, self.axis_tracks = rows[0], list(rows[1:])
+        self.columns = ("hand_x", "hand_v") + tuple(self.axes)
         self.max_force = force_limit(name, SimulatedKind.name, spec.get("max_force", 4.0), MAX_FORCE,
                                      "the simulated device's bound")
         self.values = {"mass": float(spec.get("mass", 0.05)),
@@ -89,22 +162,19 @@ class SimulatedDevice(Driver):
                        "hand_damping": float(spec.get("hand_damping", 4.0)),
                        "max_force": self.max_force, "x0": float(self.xs[0])}
         self.rate = 44100.0
-        self.sent = collections.deque()
-
-    def _track(self, script, key):
-        keys = [(float(k["t"]), float(k[key])) for k in script if key in k]
-        if not keys:
-            return np.zeros(len(self.times))
-        t, v = np.array(keys).T
-        return np.interp(self.times, t, v)
+        self.recording = False
+        self.start(self.rate)
 
     def block_values(self):
+        return {**self.values, **self.script}
+
+    def take_values(self):
+        """The values of `take_type` a take keeps (the script is in its columns)."""
         return dict(self.values)
 
     def start(self, rate):
         self.rate = float(rate)
-        self.sent = collections.deque()
-        self._kept = 0
+        self._ring, self._count = None, 0
         self._cache = None
 
     def hand(self, t):
@@ -125,8 +195,7 @@ class SimulatedDevice(Driver):
         v = np.zeros_like(t)
         if len(times) < 2:
             return x, v
-        dt = np.diff(times)
-        slopes = np.divide(np.diff(xs), dt, out=np.zeros_like(dt), where=dt > 0)
+        slopes = self.script["slopes"][:len(times) - 1]     # the hand's row: each segment's slope
         cuts = np.flatnonzero(t[1:] < t[:-1]) + 1
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(t)]):
             edges = a + np.searchsorted(t[a:b], times, side="left")   # first sample at or after each keyframe
@@ -145,6 +214,8 @@ class SimulatedDevice(Driver):
         return out
 
     def fill(self, t0, ext):
+        if not self.recording:       # the kernel computes the hand itself; a take needs its columns
+            return
         n = ext.shape[0]
         if n >= self.WINDOW:
             ext[:] = self._compute(t0, n)
@@ -157,12 +228,22 @@ class SimulatedDevice(Driver):
     KEEP = 1 << 22   # samples of sent force kept for inspection (about 95 s at 44.1 kHz)
 
     def send(self, t0, force):
-        # what a real device would receive: clamped, NaN-free; the latest KEEP samples are kept
-        sent = np.clip(np.nan_to_num(force, nan=0.0, posinf=0.0, neginf=0.0), -self.max_force, self.max_force)
-        self.sent.append(sent)
-        self._kept = getattr(self, "_kept", 0) + len(sent)
-        while self._kept - len(self.sent[0]) >= self.KEEP:
-            self._kept -= len(self.sent.popleft())
+        # the latest KEEP samples, as sent: one copy into a ring (its pages touched as it fills)
+        n = len(force)
+        if self._ring is None:
+            self._ring = np.empty(self.KEEP)
+        at = self._count % self.KEEP
+        k = min(n, self.KEEP - at)
+        self._ring[at:at + k] = force[:k]
+        self._ring[:n - k] = force[k:]
+        self._count += n
 
     def force_sent(self):
-        return np.concatenate(self.sent) if self.sent else np.zeros(0)
+        """The force the device received, sample by sample (the latest KEEP): clamped to
+        ±max_force, NaN and infinities as zero, as a device's driver sends it."""
+        kept = min(self._count, self.KEEP)
+        if not kept:
+            return np.zeros(0)
+        at = self._count % self.KEEP
+        sent = np.concatenate((self._ring[at:], self._ring[:at])) if self._count > self.KEEP else self._ring[:kept]
+        return np.clip(np.nan_to_num(sent, nan=0.0, posinf=0.0, neginf=0.0), -self.max_force, self.max_force)

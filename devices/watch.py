@@ -16,6 +16,14 @@ def _incoming(patch):
     return {k: sorted(v) for k, v in into.items()}
 
 
+def _state_values(prog, name):
+    """The parameter values a block's state depends on: all but those its type lists in
+    `keeps_state` (data it reads afresh each sample, e.g. a simulated hand's script)."""
+    values = prog.block_values(name)
+    skip = getattr(prog.by_name[name].cls, "keeps_state", ())
+    return {k: v for k, v in values.items() if k not in skip}
+
+
 def carry_state(old, new):
     """(dst, src) array pairs that give `new` (a Program) the current state of every block of
     `old` whose type, parameters and incoming connections did not change: its State slots, its
@@ -29,7 +37,7 @@ def carry_state(old, new):
         was = old.patch.blocks.get(name)
         if was is None or was.cls is not new.patch.blocks[name].cls:
             continue
-        if not _same(old.block_values(name), new.block_values(name)):
+        if not _same(_state_values(old, name), _state_values(new, name)):
             continue
         if into_old.get(name, []) != into_new.get(name, []):
             continue

@@ -41,6 +41,8 @@ class BlockPlan:
         self.derive_args = {}     # for per-sample derive: param -> binding
         self.device = None        # the device entry this block is bound to
         self.ext = {}             # External attr -> column of the ext array
+        # output attr -> (buffer attr, index): outputs the block writes into a buffer (Out.element)
+        self.elements = {p.attr: p.element for p in inst.outputs if getattr(p, "element", None)}
 
     def params(self):
         return self.cls.param_tuple()(**self.values)

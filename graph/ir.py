@@ -329,6 +329,20 @@ class ArrayItem(Node):
 
 
 @dataclass(frozen=True)
+class BufferItem(Node):
+    """Element `index` of a block's buffer: an output the block's `output` writes there this sample."""
+    buffer: int
+    index: int
+    local: str = _local()       # the buffer's name
+
+    def emit(self):
+        return f"{_named(self, f'b{int(self.buffer)}')}[{int(self.index)}]"
+
+    def value(self, frame):
+        return float(frame.buffers[self.buffer][self.index])
+
+
+@dataclass(frozen=True)
 class Column(Node):
     """This sample's value of a device or input column, which a driver supplies."""
     col: int

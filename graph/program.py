@@ -10,7 +10,8 @@ import numpy as np
 
 from ..blocks.core import _arguments
 from .family import GroupStep, groups
-from .ir import ArrayRef, BufferRef, Coef, Column, Counter, DerivedCoef, Literal, Live, Names, Output, StateSlot, Sum
+from .ir import (ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Literal, Live, Names, Output,
+                 StateSlot, Sum)
 from .blockplan import BlockPlan, _freeze
 from .items import schedule_items
 
@@ -44,6 +45,8 @@ class Program:
         self.groups = [GroupStep(self, family, g) for family, g in built]
         self.group_of = {name: gs for gs in self.groups for name in gs.group.names}
         for bp in self.plans:
+            self._declare_buffers(bp)
+        for bp in self.plans:
             self._connect(bp)
         state, live = [], []
         for bp in self.plans:
@@ -61,8 +64,15 @@ class Program:
         self.coef = np.array(self.numbers, dtype=np.float64)
         self.items = schedule_items(self)
 
+    def _declare_buffers(self, bp):
+        """A block's buffers (before the wiring: an output may be an element of one, Out.element)."""
+        for b in bp.cls.buffers:
+            bp.buffers.append(len(self.buffers))
+            self.buffer_nodes.append(BufferRef(len(self.buffers), self._local("buffer", bp, b.attr)))
+            self.buffers.append(np.zeros(b.length(bp.params(), self.fs)))
+
     def _declare(self, bp, state, live):
-        """Slots of a block's live parameters, states, buffers and control-rate coefficients."""
+        """Slots of a block's live parameters, states and control-rate coefficients."""
         cls, p = bp.cls, bp.params()
         for name, param in cls.params.items():
             if param.live and name not in bp.live_sources:
@@ -73,10 +83,6 @@ class Program:
             bp.states.append(len(state))
             bp.state_nodes.append(StateSlot(len(state), self._local("state", bp, s.attr)))
             state.append(s.value(p, self.fs))
-        for b in cls.buffers:
-            bp.buffers.append(len(self.buffers))
-            self.buffer_nodes.append(BufferRef(len(self.buffers), self._local("buffer", bp, b.attr)))
-            self.buffers.append(np.zeros(b.length(p, self.fs)))
         if cls.derive is not None:
             self._declare_coefs(bp, p)
 
@@ -151,8 +157,10 @@ class Program:
                 raise PlanError(f"driver of device {device!r} does not supply {e.attr!r} for block {bp.name!r}")
             bp.ext[e.attr] = offset + columns.index(e.attr)
         bp.ext_ports = {}
+        # outputs the device's model computes itself (Out.element) rather than read from a column
+        bp.elements = {p.attr: p.element for p in cls.ports(values)[1] if getattr(p, "element", None)}
         for port in bp.inst.outputs:
-            if getattr(port, "external", False):
+            if getattr(port, "external", False) and port.attr not in bp.elements:
                 if port.name not in columns:
                     raise PlanError(f"driver of device {device!r} does not supply axis {port.name!r}")
                 bp.ext_ports[port.attr] = offset + columns.index(port.name)
@@ -164,11 +172,23 @@ class Program:
         gs = self.group_of.get(end.block)
         if gs is not None:
             return gs.element(end)
+        bp = self.by_name[end.block]
         attr = self.patch.blocks[end.block].output(end.port).attr
-        col = getattr(self.by_name[end.block], "ext_ports", {}).get(attr)
+        col = getattr(bp, "ext_ports", {}).get(attr)
         if col is not None:
             return Column(col)
-        return self.output(self.by_name[end.block], attr)
+        if attr in bp.elements:
+            return self._element(bp, *bp.elements[attr])
+        return self.output(bp, attr)
+
+    def _element(self, bp, buffer, index):
+        """Element `index` of block bp's buffer `buffer`, which its output writes (Out.element)."""
+        names = [b.attr for b in bp.cls.buffers]
+        if buffer not in names:
+            raise PlanError(f"block {bp.name!r} ({bp.cls.type_name}): an output is an element of "
+                            f"{buffer!r}, which is not one of its buffers")
+        node = self.buffer_nodes[bp.buffers[names.index(buffer)]]
+        return BufferItem(node.index, int(index), node.local)
 
     def _local(self, kind, bp, attr):
         return self.names.local((kind, bp.index, attr), bp.ident, attr)
@@ -242,7 +262,10 @@ class Program:
             if name in bp.live_sources:
                 return Sum(bp.live_sources[name])
             return bp.live_nodes[name]
-        return self._static(bp.values[name], bp, name)
+        key = ("static", bp.index, name)        # one array or slot, whichever functions read it
+        if key not in self._numbered:
+            self._numbered[key] = self._static(bp.values[name], bp, name)
+        return self._numbered[key]
 
     def _bind(self, bp, fn, which):
         if fn is None:

@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hapticgraph import render
-from hapticgraph.graph.ir import (ArrayItem, ArrayRef, BufferRef, Coef, Column, Counter, DerivedCoef, Frame,
+from hapticgraph.graph.ir import (ArrayItem, ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Frame,
                                   Inverse, KernelSourceError, Literal, Live, Output, StateSlot, Sum)
 from hapticgraph.graph.modes import discrete_frequency
 from hapticgraph.graph.patch import load
@@ -43,7 +43,7 @@ LITERALS = st.one_of(FLOATS, st.integers(-1000, 1000), st.booleans(),
 
 
 def _leaf(draw, derived=True):
-    kinds = ["literal", "t", "live", "coef", "state", "item", "column", "output"] + (["dcoef"] if derived else [])
+    kinds = ["literal", "t", "live", "coef", "state", "item", "bitem", "column", "output"] + (["dcoef"] if derived else [])
     kind = draw(st.sampled_from(kinds))
     k3 = st.integers(0, 2)
     if kind == "literal":
@@ -59,6 +59,8 @@ def _leaf(draw, derived=True):
         return StateSlot(draw(k3))
     if kind == "item":
         return ArrayItem(draw(k3), Literal(draw(st.integers(0, 4))))
+    if kind == "bitem":
+        return BufferItem(draw(st.integers(0, 1)), draw(st.integers(0, 3)))
     if kind == "column":
         return Column(draw(st.integers(0, 3)))
     if kind == "output":
@@ -140,7 +142,7 @@ def test_numba_compiles_the_emitted_expressions_to_the_interpreted_values(ctx, d
     trees = [_tree(data.draw, frame, depth=3, derived=False) for _ in range(6)]
     ns = _namespace(frame, ext, i)
     outs = [Output(k, a).emit() for k in range(3) for a in ATTRS]
-    lines = [f"def f(t, i, ext, live, coef, state, a0, a1, a2, {', '.join(outs)}):"]
+    lines = [f"def f(t, i, ext, live, coef, state, a0, a1, a2, b0, b1, {', '.join(outs)}):"]
     lines += [f"    {Live(k).emit()} = {Live(k).load()}" for k in range(3)]
     lines += [f"    {StateSlot(k).emit()} = {StateSlot(k).load()}" for k in range(3)]
     lines += [f"    {Coef(k, COEF_KINDS[k]).emit()} = {Coef(k, COEF_KINDS[k]).load()}" for k in range(3)]
@@ -148,7 +150,8 @@ def test_numba_compiles_the_emitted_expressions_to_the_interpreted_values(ctx, d
     scope = {"math": math}
     exec("\n".join(lines), scope)
     fn = numba.njit(scope["f"])
-    got = fn(frame.t, i, ext, frame.live, frame.coef, frame.state, *frame.arrays, *[ns[o] for o in outs])
+    got = fn(frame.t, i, ext, frame.live, frame.coef, frame.state, *frame.arrays, *frame.buffers,
+             *[ns[o] for o in outs])
     for tree, value in zip(trees, got):
         with np.errstate(all="ignore"):
             assert _same(value, tree.value(frame)), tree.emit()
