@@ -4,7 +4,9 @@ hash, import it and let numba compile it (and cache the machine code beside it).
 The generated `kernel(n, t0, state, live, coef, rec, ext, <buffers>, <arrays>)` runs n samples: state
 and live parameters are loaded into locals before the sample loop and stored back after it; in
 the loop every block's `output` then every `update` runs in schedule order, static values are
-literals, buffers are power-of-two rings indexed through the shared counter `t`.
+literals, buffers are power-of-two rings indexed through the shared counter `t`. The guard
+(graph/guard.py) checks the records each sample and gives the kernel's return value: 0, or the
+code of the first fault.
 
 The source holds no text from a patch: only identifiers the compiler makes (slot numbers), names
 of Python modules, classes and functions (each matched whole as an identifier), numbers it
@@ -100,6 +102,7 @@ def generate(prog: Program):
     body.indent()
     for node in _loaded_nodes(prog):
         body(f"{node.emit()} = {node.load()}")
+    prog.guard.emit_start(body)
     body("for i in range(n):")
     body.indent()
     body("t = t0 + i")
@@ -109,7 +112,7 @@ def generate(prog: Program):
     for bp in prog.plans:
         for node in bp.state_nodes:
             body(f"{node.load()} = {node.emit()}")
-    body("return 0")
+    prog.guard.emit_end(body)       # the safety check's verdict, forces zeroed or clamped
     e = Emitter()
     e("# hapticgraph kernel, generated; do not edit. Numbers are data (coef); this text is the structure.")
     e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
@@ -218,8 +221,9 @@ class CompiledKernel:
         self.compile_seconds = time.perf_counter() - start
 
     def run(self, t0, rec, ext):
+        """Run rec.shape[0] samples from t0; the guard's code (0: sound; graph/guard.py)."""
         p = self.prog
-        self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, ext, *self.extra)
+        return self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, ext, *self.extra)
 
 
 def plugin_problems(patch):
