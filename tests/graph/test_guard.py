@@ -1,6 +1,6 @@
 """Issue 13 (servo): the safety check and the force clamp run inside the kernel as one schedule item,
 the guard (graph/guard.py), with one meaning for both engines; the runaway limit and each device's
-max_force are data."""
+max_force are data; and CompiledKernel.run's fast call gives the dispatcher's numbers."""
 import math
 
 import numpy as np
@@ -116,3 +116,48 @@ def test_the_first_fault_wins_sample_then_column(write_patch):
         rec = np.zeros((4, len(prog.records)))
         assert runner(prog).run(0, rec, np.zeros((4, len(prog.ext_columns)))) == 1   # sample 0, the audio
         assert prog.guard.describe(1, 0, 4) == ("runaway: out.ch0 reached 1 at 0.0000 s, over the limit 0.5", 0)
+
+
+def test_the_fast_call_computes_what_the_dispatcher_does(patches_dir):
+    """One sample a call with the same rec and ext (the entry point) against new arrays every call
+    (the dispatcher): the same numbers, and the fast path was taken."""
+    runs = []
+    for fast in (True, False):
+        patch = load(patches_dir / "fig7_bowed_string.yaml")
+        drivers = open_drivers(patch)
+        prog = Program(patch, (), drivers)
+        k = CompiledKernel(prog)
+        (device,) = drivers.values()
+        device.start(prog.rate)
+        rec, ext = np.zeros((1, len(prog.records))), np.zeros((1, len(prog.ext_columns)))
+        rows = []
+        for t in range(3000):
+            if not fast:
+                rec, ext = np.zeros_like(rec), np.zeros_like(ext)
+            device.fill(t, ext)
+            assert k.run(t, rec, ext) == 0
+            rows.append(rec[0].copy())
+        assert (k._rec is rec) == fast                        # new arrays every call: never remembered
+        if fast:
+            assert k._entry is next(iter(k.fn.overloads.values())).entry_point
+        runs.append(np.array(rows))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.any(runs[0][:, 0] != 0.0)
+
+
+def test_another_layout_goes_through_the_dispatcher(patches_dir):
+    """A Fortran-ordered rec is another type: the dispatcher compiles its own overload, never the
+    entry point of the C-ordered one; the same numbers."""
+    path = patches_dir / "karplus_strong.yaml"
+    runs = []
+    for order in ("C", "F"):
+        prog = Program(load(path))
+        k = CompiledKernel(prog)
+        rec = np.zeros((64, len(prog.records)), order=order)
+        blocks = []
+        for j in range(10):
+            assert k.run(64 * j, rec, np.zeros((64, 0))) == 0
+            blocks.append(rec.copy())
+        runs.append(np.concatenate(blocks))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert np.any(runs[0] != 0.0)
