@@ -84,7 +84,8 @@ class Session:
     graph/guard.py: a NaN or an infinity anywhere; a runaway in the audio or in a force sent to a
     device — never in a probe, which may watch anything — and each force clamped to its device's
     max_force), and the forces go to the drivers — zeros, and SafetyStop, if the check failed (the
-    kernel zeroed them) or a device was lost.
+    kernel zeroed them) or a device was lost. Nothing is allocated per block: the views of a
+    block size are made once.
     """
 
     def __init__(self, patch, probes=(), drivers=None, engine="compiled", blocksize=1 << 14,
@@ -104,6 +105,7 @@ class Session:
         self.fills = [(prog.drivers[d], slice(cols[0], cols[-1] + 1)) for d, cols in columns.items()]
         self.sends = [(prog.drivers[d], col) for d, col in prog.device_records]
         self.drivers = tuple(prog.drivers.values())
+        self.views = None     # (n, rec[:n], ext[:n], [(driver, its ext columns)], [(driver, force, zeros)])
         self.t = 0
         self.edits = []
         self.started = False
@@ -128,6 +130,12 @@ class Session:
         """Queue a change (e.g. `prog.set_param`) to be applied at the next block boundary."""
         self.edits.append((fn, args))
 
+    def _views(self, n):
+        rec, ext = self.rec[:n], self.ext[:n]
+        self.views = (n, rec, ext, [(driver, ext[:, cols]) for driver, cols in self.fills],
+                      [(driver, rec[:, col], self.zeros[:n]) for driver, col in self.sends])
+        return self.views
+
     def process(self, n):
         """Run the next n (≤ blocksize) samples; returns the view rec[:n] (audio, probes, forces)."""
         if not self.started:
@@ -135,13 +143,17 @@ class Session:
         while self.edits:
             fn, args = self.edits.pop(0)
             fn(*args)
-        rec, ext, t0 = self.rec[:n], self.ext[:n], self.t
-        for driver, cols in self.fills:
-            driver.fill(t0, ext[:, cols])
+        views = self.views
+        if views is None or views[0] != n:
+            views = self._views(n)
+        _, rec, ext, fills, sends = views
+        t0 = self.t
+        for driver, columns in fills:
+            driver.fill(t0, columns)
         code = self.runner.run(t0, rec, ext)
         self.t = t0 + n
-        for driver, col in self.sends:
-            driver.send(t0, self.zeros[:n] if getattr(driver, "lost", None) else rec[:, col])
+        for driver, force, zeros in sends:
+            driver.send(t0, zeros if getattr(driver, "lost", None) else force)
         if code:
             raise SafetyStop(*self.prog.guard.describe(code, t0, n))
         for driver in self.drivers:

@@ -145,6 +145,19 @@ def test_the_fast_call_computes_what_the_dispatcher_does(patches_dir):
     assert np.any(runs[0][:, 0] != 0.0)
 
 
+def test_a_session_steps_one_sample_a_call_through_the_entry_point(patches_dir):
+    """Session.process(1) hands the kernel the same views every call (made once per block size),
+    so the entry point is used; the numbers are those of one block of 2,000 samples."""
+    path = patches_dir / "fig7_bowed_string.yaml"
+    fast = Session(load(path), drivers=open_drivers(load(path)), blocksize=64)
+    got = np.concatenate([fast.process(1).copy() for _ in range(2000)])
+    assert fast.runner._rec is fast.views[1] and fast.runner._ext is fast.views[2]
+    slow = Session(load(path), drivers=open_drivers(load(path)), blocksize=2000)
+    np.testing.assert_array_equal(got, slow.process(2000))
+    np.testing.assert_array_equal(fast.prog.state, slow.prog.state)
+    np.testing.assert_array_equal(fast.prog.drivers["arm"].force_sent(), slow.prog.drivers["arm"].force_sent())
+
+
 def test_another_layout_goes_through_the_dispatcher(patches_dir):
     """A Fortran-ordered rec is another type: the dispatcher compiles its own overload, never the
     entry point of the C-ordered one; the same numbers."""
