@@ -33,6 +33,7 @@ class Driver:
 
     columns = ()
     block_type = None
+    lost = None      # a class attribute, so the per-call check finds it at once
 
     def block_values(self):
         return {}
