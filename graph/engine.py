@@ -25,11 +25,15 @@ class Driver:
     `block_values()` gives that block's internal parameters (e.g. max_force).
     Before each block of samples `fill(t0, ext)` writes the inputs of samples t0 … t0+n−1 into
     `ext` (n × len(columns)); after it `send(t0, force)` receives the force the patch put out,
-    which the driver clamps to its device's max_force before anything reaches a hand.
+    already clamped by the kernel to the driver's `max_force` (its attribute, else
+    `block_values()['max_force']`; none: no clamp) and zero after a fault, which the driver clamps
+    again before anything reaches a hand. `lost`, when a driver has it, is None or why its
+    device stopped answering.
     """
 
     columns = ()
     block_type = None
+    lost = None      # a class attribute, so the per-call check finds it at once
 
     def block_values(self):
         return {}
@@ -77,10 +81,12 @@ class SafetyStop(Exception):
 class Session:
     """A patch running block by block: the one loop behind both `run` (offline) and `play`
     (an audio callback). Each `process(n)`: edits queued since the last block are applied, the
-    drivers fill the device inputs, the kernel runs n samples, the model is checked (a NaN or an
-    infinity anywhere; a runaway in the audio or in a force sent to a device — never in a probe,
-    which may watch anything) and the forces go to the drivers — or zeros, and SafetyStop, if the
-    check failed or a device was lost. Nothing is allocated per block.
+    drivers fill the device inputs, the kernel runs n samples and checks them itself (its guard,
+    graph/guard.py: a NaN or an infinity anywhere; a runaway in the audio or in a force sent to a
+    device — never in a probe, which may watch anything — and each force clamped to its device's
+    max_force), and the forces go to the drivers — zeros, and SafetyStop, if the check failed (the
+    kernel zeroed them) or a device was lost. Nothing is allocated per block: the views of a
+    block size are made once.
     """
 
     def __init__(self, patch, probes=(), drivers=None, engine="compiled", blocksize=1 << 14,
@@ -90,6 +96,7 @@ class Session:
         self.blocksize = int(blocksize)
         self.runaway = float(runaway)
         prog = self.prog
+        prog.guard.set_runaway(self.runaway)
         self.rec = np.zeros((self.blocksize, len(prog.records)))
         self.ext = np.zeros((self.blocksize, len(prog.ext_columns)))
         self.zeros = np.zeros(self.blocksize)
@@ -98,9 +105,8 @@ class Session:
             columns.setdefault(device, []).append(k)
         self.fills = [(prog.drivers[d], slice(cols[0], cols[-1] + 1)) for d, cols in columns.items()]
         self.sends = [(prog.drivers[d], col) for d, col in prog.device_records]
-        # the runaway check's columns: the audio, and the forces sent (the last columns of rec)
-        self.forces = min((col for _, col in prog.device_records), default=len(prog.records))
-        self.state_owner = [bp.name for bp in prog.plans for _ in bp.states]
+        self.drivers = tuple(prog.drivers.values())
+        self.views = None     # (n, rec[:n], ext[:n], [(driver, its ext columns)], [(driver, force, zeros)])
         self.t = 0
         self.edits = []
         self.started = False
@@ -111,19 +117,25 @@ class Session:
 
     def start(self):
         if not self.started:
-            for driver in self.prog.drivers.values():
+            for driver in self.drivers:
                 driver.start(self.prog.rate)
             self.started = True
 
     def stop(self):
         if self.started:
-            for driver in self.prog.drivers.values():
+            for driver in self.drivers:
                 driver.stop()
             self.started = False
 
     def edit(self, fn, *args):
         """Queue a change (e.g. `prog.set_param`) to be applied at the next block boundary."""
         self.edits.append((fn, args))
+
+    def _views(self, n):
+        rec, ext = self.rec[:n], self.ext[:n]
+        self.views = (n, rec, ext, [(driver, ext[:, cols]) for driver, cols in self.fills],
+                      [(driver, rec[:, col], self.zeros[:n]) for driver, col in self.sends])
+        return self.views
 
     def process(self, n):
         """Run the next n (≤ blocksize) samples; returns the view rec[:n] (audio, probes, forces)."""
@@ -132,49 +144,23 @@ class Session:
         while self.edits:
             fn, args = self.edits.pop(0)
             fn(*args)
-        rec, ext, t0 = self.rec[:n], self.ext[:n], self.t
-        for driver, cols in self.fills:
-            driver.fill(t0, ext[:, cols])
-        self.runner.run(t0, rec, ext)
+        views = self.views
+        if views is None or views[0] != n:
+            views = self._views(n)
+        _, rec, ext, fills, sends = views
+        t0 = self.t
+        for driver, columns in fills:
+            driver.fill(t0, columns)
+        code = self.runner.run(t0, rec, ext)
         self.t = t0 + n
-        problem, kept = self._check(rec, t0)
-        for driver, col in self.sends:
-            if problem is None and not getattr(driver, "lost", False):
-                driver.send(t0, rec[:, col])
-            else:
-                driver.send(t0, self.zeros[:n])
-        if problem is None:
-            lost = [d for d in self.prog.drivers.values() if getattr(d, "lost", False)]
-            if lost:
-                problem, kept = f"device {getattr(lost[0], 'name', '?')!r} stopped answering: {lost[0].lost}", 0
-        if problem is not None:
-            raise SafetyStop(problem, kept)
+        for driver, force, zeros in sends:
+            driver.send(t0, zeros if getattr(driver, "lost", None) else force)
+        if code:
+            raise SafetyStop(*self.prog.guard.describe(code, t0, n))
+        for driver in self.drivers:
+            if getattr(driver, "lost", None):
+                raise SafetyStop(f"device {getattr(driver, 'name', '?')!r} stopped answering: {driver.lost}", 0)
         return rec
-
-    def _check(self, rec, t0):
-        """(problem, samples before it) — (None, n) when the block is sound."""
-        n = rec.shape[0]
-        if not np.isfinite(rec).all():           # one pass; find the culprit only when it fails
-            bad = ~np.isfinite(rec)
-            i = int(np.argmax(bad.any(axis=1)))
-            col = int(np.argmax(bad[i]))
-            return (f"numerical blow-up: {self.prog.records[col][0]} is {rec[i, col]} at "
-                    f"{(t0 + i) / self.rate:.4f} s"), i
-        if np.isfinite(self.runaway):
-            for first, last in ((0, self.prog.channels), (self.forces, rec.shape[1])):
-                part = rec[:, first:last]
-                if part.shape[1] and np.abs(part).max() > self.runaway:
-                    over = np.abs(part) > self.runaway
-                    i = int(np.argmax(over.any(axis=1)))
-                    col = first + int(np.argmax(over[i]))
-                    return (f"runaway: {self.prog.records[col][0]} reached {abs(rec[i, col]):.3g} at "
-                            f"{(t0 + i) / self.rate:.4f} s, over the limit {self.runaway:g}"), i
-        state = self.prog.state
-        if not np.isfinite(state).all():
-            slot = int(np.argmin(np.isfinite(state)))
-            owner = self.state_owner[slot] if slot < len(self.state_owner) else "?"
-            return f"numerical blow-up: the state of block {owner!r} is {state[slot]}", n
-        return None, n
 
 
 class Streamed:

@@ -20,3 +20,4 @@ class Interpreter:
             frame.outs, frame.derived = {}, {}
             for item in p.items:
                 item.run(frame)
+        return p.guard.end(frame, rec)

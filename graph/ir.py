@@ -59,7 +59,7 @@ def lit(v):
 
 # names the kernel module defines or reads besides the patch's locals
 KERNEL_NAMES = frozenset({"math", "np", "numba", "kernel", "t", "t0", "i", "n", "state", "live", "coef",
-                          "rec", "ext", "jit", "collections"})
+                          "rec", "ext", "jit", "collections", "kernel_guard"})
 
 
 def sanitize(text, limit=40):
@@ -125,6 +125,7 @@ class Frame:
     rec_row: Any = None
     outs: dict = field(default_factory=dict)       # (block index, attr) -> value
     derived: dict = field(default_factory=dict)    # block index -> {coefficient: value}
+    bad: bool = False                              # the guard saw a bad record this call
 
 
 class Node:

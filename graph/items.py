@@ -6,7 +6,9 @@ Each item offers
   run(frame)    the same step in the reference interpreter (frame: graph.ir.Frame)
 and the compiler and the interpreter loop over `Program.items` and nothing else: a block's
 output (with its per-sample derive), a recorded value (audio, probe, the force a device
-receives), a block's update, a fused family group's step (graph.family.GroupStep).
+receives), the safety check of the records (graph.guard.Guard, which also emits the kernel's
+start and end: `emit_start`, `emit_end`, and `end` for the interpreter), a block's update, a
+fused family group's step (graph.family.GroupStep).
 """
 from .ir import Sum, ident
 
@@ -97,10 +99,12 @@ class BlockUpdate:
 
 
 def schedule_items(prog):
-    """The kernel's sample, in order: outputs in schedule order, records, updates, group steps."""
+    """The kernel's sample, in order: outputs in schedule order, records, the guard (graph/guard.py),
+    updates, group steps."""
     items = [BlockOutput(prog, bp) for bp in prog.plans
              if bp.cls.output is not None or bp.coef_mode == "per_sample"]
     items += [Record(k, label, binding) for k, (label, binding) in enumerate(prog.records)]
+    items.append(prog.guard)
     items += [BlockUpdate(prog, bp) for bp in prog.plans if bp.cls.update is not None]
     return items + list(prog.groups)
 

@@ -4,7 +4,9 @@ hash, import it and let numba compile it (and cache the machine code beside it).
 The generated `kernel(n, t0, state, live, coef, rec, ext, <buffers>, <arrays>)` runs n samples: state
 and live parameters are loaded into locals before the sample loop and stored back after it; in
 the loop every block's `output` then every `update` runs in schedule order, static values are
-literals, buffers are power-of-two rings indexed through the shared counter `t`.
+literals, buffers are power-of-two rings indexed through the shared counter `t`. The guard
+(graph/guard.py) checks the records each sample and gives the kernel's return value: 0, or the
+code of the first fault.
 
 The source holds no text from a patch: only identifiers the compiler makes (slot numbers), names
 of Python modules, classes and functions (each matched whole as an identifier), numbers it
@@ -102,6 +104,7 @@ def generate(prog: Program):
     body.indent()
     for node in _loaded_nodes(prog):
         body(f"{node.emit()} = {node.load()}")
+    prog.guard.emit_start(body)
     body("for i in range(n):")
     body.indent()
     body("t = t0 + i")
@@ -111,7 +114,7 @@ def generate(prog: Program):
     for bp in prog.plans:
         for node in bp.state_nodes:
             body(f"{node.load()} = {node.emit()}")
-    body("return 0")
+    prog.guard.emit_end(body)       # the safety check's verdict, forces zeroed or clamped
     e = Emitter()
     e("# hapticgraph kernel, generated; do not edit. Numbers are data (coef); this text is the structure.")
     e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
@@ -221,8 +224,39 @@ class CompiledKernel:
         self.compile_seconds = time.perf_counter() - start
 
     def run(self, t0, rec, ext):
+        """Run rec.shape[0] samples from t0; the guard's code (0: sound; graph/guard.py).
+
+        The same rec and ext as the last call (a Session's views) go straight to the machine code
+        numba compiled for their types (its entry point), skipping the dispatcher's typing of
+        every argument (about 0.5 µs a call); anything else goes through the dispatcher, which
+        types it, and is remembered, when it comes twice in a row, if its types are the ones
+        compiled (the Program's arrays are never rebound, so they are remembered with it)."""
+        if rec is self._rec and ext is self._ext:
+            return self._entry(rec.shape[0], t0, self._state, self._live, self._coef, rec, ext, *self.extra)
         p = self.prog
-        self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, ext, *self.extra)
+        code = self.fn(rec.shape[0], t0, p.state, p.live, p.coef, rec, ext, *self.extra)
+        if rec is self._seen[0] and ext is self._seen[1]:
+            self._remember(t0, rec, ext)
+        self._seen = (rec, ext)
+        return code
+
+    _rec = _ext = None
+    _seen = (None, None)
+
+    def _remember(self, t0, rec, ext):
+        """Keep the entry point compiled for exactly these arguments' types (numba's own typeof)."""
+        if type(t0) is not int:     # Session's counter; numba types other numbers otherwise
+            return
+        p = self.prog
+        args = (rec.shape[0], t0, p.state, p.live, p.coef, rec, ext) + self.extra
+        try:
+            sig = tuple(self.fn.typeof_pyval(a) for a in args)
+            entry = self.fn.overloads[sig].entry_point
+        except (KeyError, AttributeError, TypeError, ValueError):
+            self._rec = self._ext = None
+            return
+        self._entry, self._state, self._live, self._coef = entry, p.state, p.live, p.coef
+        self._rec, self._ext = rec, ext
 
 
 def plugin_problems(patch):

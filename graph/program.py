@@ -13,6 +13,7 @@ from .family import GroupStep, groups
 from .ir import (ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Literal, Live, Names, Output,
                  StateSlot, Sum)
 from .blockplan import BlockPlan, _freeze
+from .guard import Guard
 from .items import schedule_items
 
 
@@ -61,6 +62,7 @@ class Program:
         for gs in self.groups:
             gs.bind()
         self._records(probes)
+        self.guard = Guard(self)     # after the records; its numbers go into coef
         self.coef = np.array(self.numbers, dtype=np.float64)
         self.items = schedule_items(self)
 

@@ -87,14 +87,15 @@ def test_serial_take_rerenders_bit_for_bit(tmp_path, write_patch, jack):
     replayed = _replay(tmp_path, path, take, jack.env)
     assert np.array_equal(replayed.view(np.uint32), heard.view(np.uint32))
     # a device entry `driver: replay` feeds the device from the take; what it would have sent is
-    # clamped to the bound the serial device had (the take's), as the device received it
+    # clamped to the bound the serial device had (the take's), as the device received it; the
+    # take holds the force as the kernel clamped it (the wall pushed harder than 1 N)
     replay = hapticgraph_load(write_patch(PATCH.replace(
         '{driver: serial, profile: fader_1dof, port: "PORT", max_force: 1.0}', "{driver: replay, file: take.hgrec, axes: [pos, touch]}"),
         name="replay.yaml"))
     drivers = open_drivers(replay)
     render(replay, seconds=t.seconds, drivers=drivers)
     sent = drivers["dev"].force_sent()
-    assert np.abs(sent).max() == 1.0 and np.abs(force).max() > 1.0
+    assert np.abs(sent).max() == 1.0 and np.abs(force).max() == 1.0 and np.mean(np.abs(force) == 1.0) > 0.01
 
 
 def _wait_for_rows(proc, hgrec, rows):
