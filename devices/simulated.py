@@ -233,6 +233,10 @@ class SimulatedDevice(Driver):
         if self._ring is None:
             self._ring = np.empty(self.KEEP)
         at = self._count % self.KEEP
+        if n == 1:                       # a servo loop's sample: one element, no slices
+            self._ring[at] = force[0]
+            self._count += 1
+            return
         k = min(n, self.KEEP - at)
         self._ring[at:at + k] = force[:k]
         self._ring[:n - k] = force[k:]
