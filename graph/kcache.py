@@ -33,19 +33,43 @@ def cache_dir():
 
 _SKIP_TOP = {"numpy", "numba", "llvmlite", "builtins"} | set(getattr(sys, "stdlib_module_names", ()))
 _host = []
+# the lines of /proc/cpuinfo that say which instructions the machine code may use
+_CPU_FIELDS = {"vendor_id", "cpu family", "model", "model name", "flags", "Features", "CPU implementer",
+               "CPU architecture", "CPU variant", "CPU part", "isa"}
+
+
+def _cpu():
+    """The CPU the machine code is made for. Linux says it in /proc/cpuinfo (a warm start reads
+    that instead of loading LLVM, 70 ms); elsewhere, LLVM's name and features of the host."""
+    if sys.platform.startswith("linux"):
+        try:
+            with open("/proc/cpuinfo", "rb") as f:
+                first = f.read(1 << 16).decode("utf-8", "replace").split("\n\n")[0]
+        except OSError:
+            first = ""
+        lines = [ln for ln in first.splitlines() if ln.split(":")[0].strip() in _CPU_FIELDS]
+        if lines:
+            return "\n".join(lines)
+    from llvmlite import binding
+    return f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}"
+
+
+def _version(dist):
+    from importlib import metadata
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "?"
 
 
 def _host_id():
-    """Versions and the CPU the machine code is made for (numba's cache is per CPU)."""
+    """Versions and the CPU the machine code is made for, told without importing numba (a warm
+    start loads an extension module and never imports it: graph/aot.py)."""
     if not _host:
-        import llvmlite
-        import numba
         import numpy
-        from llvmlite import binding
-        cpu = f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}"
-        _host.append("\0".join([numba.__version__, llvmlite.__version__, numpy.__version__, sys.version,
-                                sys.implementation.cache_tag or "", platform.machine(), cpu,
-                                str(numba.config.CPU_NAME), str(numba.config.CPU_FEATURES)]))
+        _host.append("\0".join([_version("numba"), _version("llvmlite"), numpy.__version__, sys.version,
+                                sys.implementation.cache_tag or "", platform.machine(), _cpu(),
+                                os.environ.get("NUMBA_CPU_NAME", ""), os.environ.get("NUMBA_CPU_FEATURES", "")]))
     return _host[0]
 
 
@@ -104,7 +128,7 @@ def kernel_key(source, fns, prog):
     def add(text):
         h.update(str(text).encode("utf-8", "surrogatepass"))
         h.update(b"\0")
-    add("hapticgraph kernel 2")
+    add("hapticgraph kernel 3")
     add(source)
     add(_host_id())
     from .kernel import jit
@@ -173,27 +197,38 @@ def _listing(folder):
     return sorted(found)
 
 
-def verified(entry, source, key):
-    """True if the entry folder is exactly what a compile of this source wrote: kernel.py is the
-    source, and every file is listed in the manifest with its hash (none missing, none extra)."""
+def verified_files(folder, key):
+    """True if folder holds exactly what its manifest lists (the key given, every file with its
+    hash, none missing, none extra, no link)."""
     try:
-        if os.path.islink(entry) or not os.path.isdir(entry):
+        if os.path.islink(folder) or not os.path.isdir(folder):
             return False
-        with open(os.path.join(entry, MANIFEST), "rb") as f:
+        with open(os.path.join(folder, MANIFEST), "rb") as f:
             manifest = json.loads(f.read(1 << 20))
         files = manifest.get("files") if isinstance(manifest, dict) else None
         if manifest.get("key") != key or not isinstance(files, dict):
             return False
-        listing = _listing(entry)
-        if listing is None or sorted(list(files) + [MANIFEST]) != listing or "kernel.py" not in files:
+        listing = _listing(folder)
+        if listing is None or sorted(list(files) + [MANIFEST]) != listing:
+            return False
+        return all(isinstance(d, str) and _file_digest(os.path.join(folder, *rel.split("/"))) == d
+                   for rel, d in files.items())
+    except (OSError, ValueError, AttributeError, TypeError):
+        return False
+
+
+def verified(entry, source, key):
+    """True if the entry folder is exactly what a compile of this source wrote: kernel.py is the
+    source, and every file is listed in the manifest with its hash (none missing, none extra)."""
+    try:
+        if os.path.islink(entry):
             return False
         with open(os.path.join(entry, "kernel.py"), "rb") as f:
             if f.read() != source.encode("utf-8"):
                 return False
-        return all(isinstance(d, str) and _file_digest(os.path.join(entry, *rel.split("/"))) == d
-                   for rel, d in files.items())
-    except (OSError, ValueError, AttributeError, TypeError):
+    except OSError:
         return False
+    return verified_files(entry, key)
 
 
 def _write_manifest(entry, key):
@@ -257,8 +292,10 @@ def _module(name, source, filename):
 
 def _dispatcher(module, cached):
     import numba
+    from ..blocks.core import register_helpers
     from .numba_start import start
     start()
+    register_helpers()      # the @helper functions defined since the last compile
     fn = numba.njit(nogil=True)(module.kernel)
     if cached:
         fn._cache = _pinned_cache(module.kernel)
