@@ -11,6 +11,8 @@ import sys
 import tempfile
 import types
 
+from . import aot
+
 _warned = []            # the one "cache not usable" warning, given at most once per process
 MANIFEST = "manifest.json"
 
@@ -302,48 +304,87 @@ def _dispatcher(module, cached):
     return fn
 
 
+def _arguments(warm):
+    """The arguments `warm` calls the kernel with (those it is compiled for)."""
+    got = []
+    warm(lambda *args: got.append(args))
+    return got[0]
+
+
+def _jit(name, source, filename):
+    """Makes the numba dispatcher, compiled in memory: a native kernel's fallback for arguments
+    its extension module was not built for."""
+    def make():
+        _say("compiling the kernel with numba for arguments of other types…")
+        return _dispatcher(sys.modules.get(name) or _module(name, source, filename), cached=False)
+    return make
+
+
+def _from_entry(entry, name, source, key, warm):
+    """(kernel, path of kernel.py) from a verified entry: its extension module (numba is not
+    imported), else numba's cache."""
+    path = os.path.join(entry, "kernel.py")
+    fn = aot.load(entry, _jit(name, source, path)) if aot.enabled() else None
+    if fn is not None:
+        warm(fn)
+        return fn, path
+    fn = _dispatcher(_module(name, source, path), cached=True)
+    warm(fn)
+    if fn.stats.cache_misses:      # numba compiled after all (and wrote its files): list them
+        try:
+            _write_manifest(entry, key)
+        except OSError:
+            pass
+    return fn, path
+
+
+def _into_entry(root, entry, name, source, key, warm):
+    """(kernel, path of kernel.py): compiled into a fresh folder (an extension module, else
+    numba's cache), which then becomes the entry."""
+    tmp = None
+    try:
+        tmp = tempfile.mkdtemp(prefix=f".kernel_{key}.", dir=root)
+        with open(os.path.join(tmp, "kernel.py"), "w", encoding="utf-8") as f:
+            f.write(source)
+        module = _module(name, source, os.path.join(tmp, "kernel.py"))
+        fn = aot.native(tmp, module.kernel, _arguments(warm), root, _say,
+                        _jit(name, source, os.path.join(entry, "kernel.py")))
+        if fn is None:
+            fn = _dispatcher(module, cached=True)
+            warm(fn)
+            fn._cache.disable()      # its files move with the rename below; nothing more is written
+        else:
+            warm(fn)
+        _write_manifest(tmp, key)
+        try:
+            os.rename(tmp, entry)
+        except OSError:
+            if verified(entry, source, key):    # another process finished the same kernel first
+                _remove(tmp)
+            else:
+                _remove(entry)
+                os.rename(tmp, entry)
+        return fn, os.path.join(entry, "kernel.py")
+    except BaseException:   # numba cannot compile it, or an interrupt: leave nothing behind
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        sys.modules.pop(name, None)
+        raise
+
+
 def _compile(key, source, label, warm):
-    """(dispatcher, path of kernel.py or None): from a verified cache entry, else compiled (into a
+    """(kernel, path of kernel.py or None): from a verified cache entry, else compiled (into a
     fresh entry when the cache folder is usable, else in memory)."""
     name = f"hapticgraph_kernel_{key}"
     root = usable_cache_dir()
     if root is not None:
         entry = os.path.join(root, f"kernel_{key}")
-        path = os.path.join(entry, "kernel.py")
         if verified(entry, source, key):
-            fn = _dispatcher(_module(name, source, path), cached=True)
-            warm(fn)
-            if fn.stats.cache_misses:      # numba compiled after all (and wrote its files): list them
-                try:
-                    _write_manifest(entry, key)
-                except OSError:
-                    pass
-            return fn, path
+            return _from_entry(entry, name, source, key, warm)
         _say(f"compiling {label}…")
-        tmp = None
         try:
-            tmp = tempfile.mkdtemp(prefix=f".kernel_{key}.", dir=root)
-            with open(os.path.join(tmp, "kernel.py"), "w", encoding="utf-8") as f:
-                f.write(source)
-            fn = _dispatcher(_module(name, source, os.path.join(tmp, "kernel.py")), cached=True)
-            warm(fn)
-            fn._cache.disable()      # its files move with the rename below; nothing more is written
-            _write_manifest(tmp, key)
-            try:
-                os.rename(tmp, entry)
-            except OSError:
-                if verified(entry, source, key):    # another process finished the same kernel first
-                    _remove(tmp)
-                else:
-                    _remove(entry)
-                    os.rename(tmp, entry)
-            return fn, path
-        except BaseException as exc:   # numba cannot compile it, or an interrupt: leave nothing behind
-            if tmp is not None:
-                shutil.rmtree(tmp, ignore_errors=True)
-            sys.modules.pop(name, None)
-            if not isinstance(exc, OSError):
-                raise
+            return _into_entry(root, entry, name, source, key, warm)
+        except OSError as exc:
             _warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
     else:
         _say(f"compiling {label}…")
