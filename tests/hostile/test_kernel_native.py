@@ -6,6 +6,7 @@ import json
 import random
 import shutil
 
+import pytest
 from hostile_env import run_hg
 
 STRING = """hapticgraph: 1
@@ -21,6 +22,20 @@ connect:
   - mic.right -> out.right
 """
 TIMEOUT = 300           # a first build also compiles numba's C runtime
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """A cache folder holding numba's C runtime and the patch's kernel built ahead of time (cold,
+    then warm): each test attacks a copy, so the runtime is compiled once for the module."""
+    folder = tmp_path_factory.mktemp("built")
+    env = _setup(folder)
+    assert "compiling kernel for 4 blocks" in _run(folder, env)
+    assert "compiling" not in _run(folder, env)
+    entry = _entry(folder)
+    assert not (entry / "__pycache__").exists()
+    _module(entry)
+    return folder / "cache"
 
 
 def _setup(tmp_path, **env):
@@ -46,12 +61,13 @@ def _module(entry):
     return found[0]
 
 
-def _native_entry(tmp_path, env):
-    assert "compiling kernel for 4 blocks" in _run(tmp_path, env)
+def _native_entry(tmp_path, built):
+    """A copy of the built cache in tmp_path: (env, its entry, the entry's extension module)."""
+    env = _setup(tmp_path)
+    shutil.copytree(built, tmp_path / "cache")
     assert "compiling" not in _run(tmp_path, env)
     entry = _entry(tmp_path)
-    assert not (entry / "__pycache__").exists()
-    return entry, _module(entry)
+    return env, entry, _module(entry)
 
 
 def _assert_rebuilt(tmp_path, env):
@@ -61,9 +77,8 @@ def _assert_rebuilt(tmp_path, env):
     _module(_entry(tmp_path))
 
 
-def test_random_bytes_in_the_extension_module_are_rebuilt_not_run(tmp_path):
-    env = _setup(tmp_path)
-    _, module = _native_entry(tmp_path, env)
+def test_random_bytes_in_the_extension_module_are_rebuilt_not_run(tmp_path, built):
+    env, _, module = _native_entry(tmp_path, built)
     data = bytearray(module.read_bytes())
     rng = random.Random(1)
     for k in range(len(data) // 3, len(data) // 3 + 4096):
@@ -72,9 +87,8 @@ def test_random_bytes_in_the_extension_module_are_rebuilt_not_run(tmp_path):
     _assert_rebuilt(tmp_path, env)
 
 
-def test_edited_types_and_a_missing_module_are_rebuilt(tmp_path):
-    env = _setup(tmp_path)
-    entry, module = _native_entry(tmp_path, env)
+def test_edited_types_and_a_missing_module_are_rebuilt(tmp_path, built):
+    env, entry, module = _native_entry(tmp_path, built)
     spec = json.loads((entry / "aot.json").read_text())
     spec["args"][2][1] = 2                  # `state` as two-dimensional: the manifest says otherwise
     (entry / "aot.json").write_text(json.dumps(spec))
@@ -83,12 +97,11 @@ def test_edited_types_and_a_missing_module_are_rebuilt(tmp_path):
     _assert_rebuilt(tmp_path, env)
 
 
-def test_a_module_planted_beside_a_numba_entry_is_refused(tmp_path):
-    env = _setup(tmp_path)
-    entry, module = _native_entry(tmp_path, env)
+def test_a_module_planted_beside_a_numba_entry_is_refused(tmp_path, built):
+    env, entry, module = _native_entry(tmp_path, built)
     planted = tmp_path / "planted"
     shutil.copytree(entry, planted)
-    shutil.rmtree(tmp_path / "cache")
+    shutil.rmtree(entry)
     _run(tmp_path, {**env, "HAPTICGRAPH_AOT": "0"})          # numba's cache files only
     entry = _entry(tmp_path)
     assert (entry / "__pycache__").is_dir() and not list(entry.glob("hapticgraph_aot*"))
@@ -97,9 +110,8 @@ def test_a_module_planted_beside_a_numba_entry_is_refused(tmp_path):
     _assert_rebuilt(tmp_path, env)
 
 
-def test_a_tampered_runtime_object_is_rebuilt_not_linked(tmp_path):
-    env = _setup(tmp_path)
-    _native_entry(tmp_path, env)
+def test_a_tampered_runtime_object_is_rebuilt_not_linked(tmp_path, built):
+    env, _, _ = _native_entry(tmp_path, built)
     runtime = next((tmp_path / "cache").glob("aot_runtime_*"))
     obj = sorted(runtime.glob("*.o"))[0]
     obj.write_bytes(obj.read_bytes()[:1000])
