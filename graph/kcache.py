@@ -11,6 +11,8 @@ import sys
 import tempfile
 import types
 
+from . import aot
+
 _warned = []            # the one "cache not usable" warning, given at most once per process
 MANIFEST = "manifest.json"
 
@@ -33,19 +35,43 @@ def cache_dir():
 
 _SKIP_TOP = {"numpy", "numba", "llvmlite", "builtins"} | set(getattr(sys, "stdlib_module_names", ()))
 _host = []
+# the lines of /proc/cpuinfo that say which instructions the machine code may use
+_CPU_FIELDS = {"vendor_id", "cpu family", "model", "model name", "flags", "Features", "CPU implementer",
+               "CPU architecture", "CPU variant", "CPU part", "isa"}
+
+
+def _cpu():
+    """The CPU the machine code is made for. Linux says it in /proc/cpuinfo (a warm start reads
+    that instead of loading LLVM, 70 ms); elsewhere, LLVM's name and features of the host."""
+    if sys.platform.startswith("linux"):
+        try:
+            with open("/proc/cpuinfo", "rb") as f:
+                first = f.read(1 << 16).decode("utf-8", "replace").split("\n\n")[0]
+        except OSError:
+            first = ""
+        lines = [ln for ln in first.splitlines() if ln.split(":")[0].strip() in _CPU_FIELDS]
+        if lines:
+            return "\n".join(lines)
+    from llvmlite import binding
+    return f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}"
+
+
+def _version(dist):
+    from importlib import metadata
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "?"
 
 
 def _host_id():
-    """Versions and the CPU the machine code is made for (numba's cache is per CPU)."""
+    """Versions and the CPU the machine code is made for, told without importing numba (a warm
+    start loads an extension module and never imports it: graph/aot.py)."""
     if not _host:
-        import llvmlite
-        import numba
         import numpy
-        from llvmlite import binding
-        cpu = f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}"
-        _host.append("\0".join([numba.__version__, llvmlite.__version__, numpy.__version__, sys.version,
-                                sys.implementation.cache_tag or "", platform.machine(), cpu,
-                                str(numba.config.CPU_NAME), str(numba.config.CPU_FEATURES)]))
+        _host.append("\0".join([_version("numba"), _version("llvmlite"), numpy.__version__, sys.version,
+                                sys.implementation.cache_tag or "", platform.machine(), _cpu(),
+                                os.environ.get("NUMBA_CPU_NAME", ""), os.environ.get("NUMBA_CPU_FEATURES", "")]))
     return _host[0]
 
 
@@ -104,7 +130,7 @@ def kernel_key(source, fns, prog):
     def add(text):
         h.update(str(text).encode("utf-8", "surrogatepass"))
         h.update(b"\0")
-    add("hapticgraph kernel 2")
+    add("hapticgraph kernel 3")
     add(source)
     add(_host_id())
     from .kernel import jit
@@ -173,27 +199,38 @@ def _listing(folder):
     return sorted(found)
 
 
-def verified(entry, source, key):
-    """True if the entry folder is exactly what a compile of this source wrote: kernel.py is the
-    source, and every file is listed in the manifest with its hash (none missing, none extra)."""
+def verified_files(folder, key):
+    """True if folder holds exactly what its manifest lists (the key given, every file with its
+    hash, none missing, none extra, no link)."""
     try:
-        if os.path.islink(entry) or not os.path.isdir(entry):
+        if os.path.islink(folder) or not os.path.isdir(folder):
             return False
-        with open(os.path.join(entry, MANIFEST), "rb") as f:
+        with open(os.path.join(folder, MANIFEST), "rb") as f:
             manifest = json.loads(f.read(1 << 20))
         files = manifest.get("files") if isinstance(manifest, dict) else None
         if manifest.get("key") != key or not isinstance(files, dict):
             return False
-        listing = _listing(entry)
-        if listing is None or sorted(list(files) + [MANIFEST]) != listing or "kernel.py" not in files:
+        listing = _listing(folder)
+        if listing is None or sorted(list(files) + [MANIFEST]) != listing:
+            return False
+        return all(isinstance(d, str) and _file_digest(os.path.join(folder, *rel.split("/"))) == d
+                   for rel, d in files.items())
+    except (OSError, ValueError, AttributeError, TypeError):
+        return False
+
+
+def verified(entry, source, key):
+    """True if the entry folder is exactly what a compile of this source wrote: kernel.py is the
+    source, and every file is listed in the manifest with its hash (none missing, none extra)."""
+    try:
+        if os.path.islink(entry):
             return False
         with open(os.path.join(entry, "kernel.py"), "rb") as f:
             if f.read() != source.encode("utf-8"):
                 return False
-        return all(isinstance(d, str) and _file_digest(os.path.join(entry, *rel.split("/"))) == d
-                   for rel, d in files.items())
-    except (OSError, ValueError, AttributeError, TypeError):
+    except OSError:
         return False
+    return verified_files(entry, key)
 
 
 def _write_manifest(entry, key):
@@ -257,56 +294,97 @@ def _module(name, source, filename):
 
 def _dispatcher(module, cached):
     import numba
+    from ..blocks.core import register_helpers
     from .numba_start import start
     start()
+    register_helpers()      # the @helper functions defined since the last compile
     fn = numba.njit(nogil=True)(module.kernel)
     if cached:
         fn._cache = _pinned_cache(module.kernel)
     return fn
 
 
+def _arguments(warm):
+    """The arguments `warm` calls the kernel with (those it is compiled for)."""
+    got = []
+    warm(lambda *args: got.append(args))
+    return got[0]
+
+
+def _jit(name, source, filename):
+    """Makes the numba dispatcher, compiled in memory: a native kernel's fallback for arguments
+    its extension module was not built for."""
+    def make():
+        _say("compiling the kernel with numba for arguments of other types…")
+        return _dispatcher(sys.modules.get(name) or _module(name, source, filename), cached=False)
+    return make
+
+
+def _from_entry(entry, name, source, key, warm):
+    """(kernel, path of kernel.py) from a verified entry: its extension module (numba is not
+    imported), else numba's cache."""
+    path = os.path.join(entry, "kernel.py")
+    fn = aot.load(entry, _jit(name, source, path)) if aot.enabled() else None
+    if fn is not None:
+        warm(fn)
+        return fn, path
+    fn = _dispatcher(_module(name, source, path), cached=True)
+    warm(fn)
+    if fn.stats.cache_misses:      # numba compiled after all (and wrote its files): list them
+        try:
+            _write_manifest(entry, key)
+        except OSError:
+            pass
+    return fn, path
+
+
+def _into_entry(root, entry, name, source, key, warm):
+    """(kernel, path of kernel.py): compiled into a fresh folder (an extension module, else
+    numba's cache), which then becomes the entry."""
+    tmp = None
+    try:
+        tmp = tempfile.mkdtemp(prefix=f".kernel_{key}.", dir=root)
+        with open(os.path.join(tmp, "kernel.py"), "w", encoding="utf-8") as f:
+            f.write(source)
+        module = _module(name, source, os.path.join(tmp, "kernel.py"))
+        fn = aot.native(tmp, module.kernel, _arguments(warm), root, _say,
+                        _jit(name, source, os.path.join(entry, "kernel.py")))
+        if fn is None:
+            fn = _dispatcher(module, cached=True)
+            warm(fn)
+            fn._cache.disable()      # its files move with the rename below; nothing more is written
+        else:
+            warm(fn)
+        _write_manifest(tmp, key)
+        try:
+            os.rename(tmp, entry)
+        except OSError:
+            if verified(entry, source, key):    # another process finished the same kernel first
+                _remove(tmp)
+            else:
+                _remove(entry)
+                os.rename(tmp, entry)
+        return fn, os.path.join(entry, "kernel.py")
+    except BaseException:   # numba cannot compile it, or an interrupt: leave nothing behind
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        sys.modules.pop(name, None)
+        raise
+
+
 def _compile(key, source, label, warm):
-    """(dispatcher, path of kernel.py or None): from a verified cache entry, else compiled (into a
+    """(kernel, path of kernel.py or None): from a verified cache entry, else compiled (into a
     fresh entry when the cache folder is usable, else in memory)."""
     name = f"hapticgraph_kernel_{key}"
     root = usable_cache_dir()
     if root is not None:
         entry = os.path.join(root, f"kernel_{key}")
-        path = os.path.join(entry, "kernel.py")
         if verified(entry, source, key):
-            fn = _dispatcher(_module(name, source, path), cached=True)
-            warm(fn)
-            if fn.stats.cache_misses:      # numba compiled after all (and wrote its files): list them
-                try:
-                    _write_manifest(entry, key)
-                except OSError:
-                    pass
-            return fn, path
+            return _from_entry(entry, name, source, key, warm)
         _say(f"compiling {label}…")
-        tmp = None
         try:
-            tmp = tempfile.mkdtemp(prefix=f".kernel_{key}.", dir=root)
-            with open(os.path.join(tmp, "kernel.py"), "w", encoding="utf-8") as f:
-                f.write(source)
-            fn = _dispatcher(_module(name, source, os.path.join(tmp, "kernel.py")), cached=True)
-            warm(fn)
-            fn._cache.disable()      # its files move with the rename below; nothing more is written
-            _write_manifest(tmp, key)
-            try:
-                os.rename(tmp, entry)
-            except OSError:
-                if verified(entry, source, key):    # another process finished the same kernel first
-                    _remove(tmp)
-                else:
-                    _remove(entry)
-                    os.rename(tmp, entry)
-            return fn, path
-        except BaseException as exc:   # numba cannot compile it, or an interrupt: leave nothing behind
-            if tmp is not None:
-                shutil.rmtree(tmp, ignore_errors=True)
-            sys.modules.pop(name, None)
-            if not isinstance(exc, OSError):
-                raise
+            return _into_entry(root, entry, name, source, key, warm)
+        except OSError as exc:
             _warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
     else:
         _say(f"compiling {label}…")

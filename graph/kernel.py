@@ -187,9 +187,7 @@ class CompiledKernel:
 
     def __init__(self, prog: Program, label=None, diagnose=True):
         import numpy as np
-        start = time.perf_counter()
-        start_numba()
-        register_helpers()
+        start = time.perf_counter()     # numba is started where it is used: a native kernel needs none
         self.prog = prog
         source, fns = generate(prog)
         self.source = source

@@ -13,6 +13,10 @@ PATCHES = sorted((ROOT / "patches").glob("*.yaml"))
 def _kernel_cache(tmp_path_factory):
     if "HAPTICGRAPH_CACHE" not in os.environ:
         os.environ["HAPTICGRAPH_CACHE"] = str(tmp_path_factory.mktemp("kernels"))
+    # kernels compiled by numba's JIT, as before: building extension modules (graph/aot.py) costs
+    # a link per kernel and numba's C runtime once per cache folder, and many tests start with an
+    # empty one; tests/graph/test_aot.py and tests/hostile/test_kernel_native.py turn it on
+    os.environ.setdefault("HAPTICGRAPH_AOT", "0")
     yield
 
 

@@ -22,8 +22,10 @@ connect:
 
 
 def _setup(tmp_path, text=STRING):
+    """numba's own cache files (the kernel built by numba's JIT): tests/hostile/test_kernel_native.py
+    attacks the extension module built ahead of time."""
     (tmp_path / "p.yaml").write_text(text)
-    return {"HAPTICGRAPH_CACHE": str(tmp_path / "cache")}
+    return {"HAPTICGRAPH_CACHE": str(tmp_path / "cache"), "HAPTICGRAPH_AOT": "0"}
 
 
 def _run(tmp_path, env, *extra):
