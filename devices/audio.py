@@ -131,7 +131,8 @@ class Player:
         self.probe_out = probe_out
         if probe_out is not None:
             prog = session.prog
-            probe_out.start(self.rate, prog.channels, [label for label, _ in prog.records[prog.channels:session.forces]], None)
+            forces = min((col for _, col in prog.device_records), default=len(prog.records))
+            probe_out.start(self.rate, prog.channels, [label for label, _ in prog.records[prog.channels:forces]], None)
         self.remaining = None if seconds is None else int(round(seconds * self.rate))
         self.nfade = max(1, int(round(fade * self.rate)))
         self.ramp = 1.0 - np.arange(1, self.nfade + 1) / self.nfade      # ends at exactly 0
