@@ -45,9 +45,10 @@ def test_native_kernel_equals_numba_jit_bit_for_bit(path, native_cache, monkeypa
     probes = [f"{name}.{port.name}" for name, inst in patch.blocks.items() for port in inst.outputs]
     jit = _render(path, probes, os.environ["HAPTICGRAPH_CACHE"], False, monkeypatch)
     native = _render(path, probes, native_cache, True, monkeypatch)
-    assert np.array_equal(native.audio, jit.audio) and np.any(native.audio != 0)
+    assert np.array_equal(native.audio, jit.audio)
     for k in probes:
         assert np.array_equal(native.probes[k], jit.probes[k]), k
+    assert any(np.any(v != 0) for v in [native.audio, *native.probes.values()])     # not vacuous
 
 
 def test_arguments_of_other_types_go_to_numba(native_cache, monkeypatch, patches_dir):
