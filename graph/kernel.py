@@ -226,7 +226,8 @@ class CompiledKernel:
 
         The same rec and ext as the last call (a Session's views) go straight to the machine code
         numba compiled for their types (its entry point), skipping the dispatcher's typing of
-        every argument (about 0.5 µs a call); anything else goes through the dispatcher, which
+        every argument (about 0.5 µs a call; for a kernel built ahead of time, its module's
+        function without the per-call type checks, done once when remembered); anything else goes through the dispatcher, which
         types it, and is remembered, when it comes twice in a row, if its types are the ones
         compiled (the Program's arrays are never rebound, so they are remembered with it)."""
         if rec is self._rec and ext is self._ext:
@@ -248,8 +249,13 @@ class CompiledKernel:
         p = self.prog
         args = (rec.shape[0], t0, p.state, p.live, p.coef, rec, ext) + self.extra
         try:
-            sig = tuple(self.fn.typeof_pyval(a) for a in args)
-            entry = self.fn.overloads[sig].entry_point
+            if hasattr(self.fn, "fits"):        # built ahead of time (graph/aot.py): its checks, once
+                if not self.fn.fits(args):
+                    raise TypeError("not the built types")
+                entry = self.fn.native
+            else:
+                sig = tuple(self.fn.typeof_pyval(a) for a in args)
+                entry = self.fn.overloads[sig].entry_point
         except (KeyError, AttributeError, TypeError, ValueError):
             self._rec = self._ext = None
             return
