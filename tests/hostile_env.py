@@ -41,3 +41,17 @@ def assert_patch_error(proc, fragment=None):
     if fragment is not None:
         assert fragment in proc.stderr, proc.stderr
 
+
+# A small patch whose kernel the cache tests build, tamper with and load again: a plucked delay loop.
+STRING = """hapticgraph: 1
+blocks:
+  pick: {type: pluck, time: 0.0, force: 1.0, duration: 0.0005}
+  loop: {type: delay, length: 99}
+  mic:  {type: mic, gain: 0.5}
+  out:  {type: audio_out, channels: 2}
+connect:
+  - pick.out -> loop.in
+  - loop.out -> mic.in
+  - mic.left -> out.left
+  - mic.right -> out.right
+"""

@@ -5,20 +5,7 @@ import os
 import random
 import shutil
 
-from hostile_env import run_hg
-
-STRING = """hapticgraph: 1
-blocks:
-  pick: {type: pluck, time: 0.0, force: 1.0, duration: 0.0005}
-  loop: {type: delay, length: 99}
-  mic:  {type: mic, gain: 0.5}
-  out:  {type: audio_out, channels: 2}
-connect:
-  - pick.out -> loop.in
-  - loop.out -> mic.in
-  - mic.left -> out.left
-  - mic.right -> out.right
-"""
+from hostile_env import STRING, run_hg
 
 
 def _setup(tmp_path, text=STRING):

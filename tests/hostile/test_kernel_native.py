@@ -7,20 +7,8 @@ import random
 import shutil
 
 import pytest
-from hostile_env import run_hg
+from hostile_env import STRING, run_hg
 
-STRING = """hapticgraph: 1
-blocks:
-  pick: {type: pluck, time: 0.0, force: 1.0, duration: 0.0005}
-  loop: {type: delay, length: 99}
-  mic:  {type: mic, gain: 0.5}
-  out:  {type: audio_out, channels: 2}
-connect:
-  - pick.out -> loop.in
-  - loop.out -> mic.in
-  - mic.left -> out.left
-  - mic.right -> out.right
-"""
 TIMEOUT = 300           # a first build also compiles numba's C runtime
 
 
