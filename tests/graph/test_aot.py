@@ -17,10 +17,10 @@ from hapticgraph.graph.kernel import CompiledKernel
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.program import Program
 
-# one of each kind: devices and couplings, a bow, lattices, a hammer, voices and MIDI, a delay
-# line and FIR, junctions, a 4-D lattice (every patch: `-k test_aot` with HAPTICGRAPH_AOT_ALL=1)
-CHOSEN = ["fig7_bowed_string", "fig8_pluck_damp", "babe_is_sleeping", "piano_hammer", "poly_strings",
-          "karplus_strong", "string_bound_implicit", "hyper_4d"]
+# one of each kind: a device and a bow, lattices and couplings, a hammer, voices and MIDI, delay
+# lines and junctions (every patch, 20 of them: `-k test_aot` with HAPTICGRAPH_AOT_ALL=1; fewer
+# here so the suite stays well inside CI's 20 minutes)
+CHOSEN = ["fig7_bowed_string", "babe_is_sleeping", "piano_hammer", "poly_strings", "string_bound_implicit"]
 EVERY = os.environ.get("HAPTICGRAPH_AOT_ALL") == "1"
 SAMPLES = 3000
 
