@@ -6,7 +6,9 @@ patches, schedule the graph, generate the kernel and run the reference interpret
 """
 import ast
 import collections
+import functools
 import inspect
+import linecache
 import re
 import textwrap
 
@@ -210,11 +212,52 @@ def _arguments(fn):
     return tuple(inspect.signature(fn).parameters)
 
 
+def _function_tree(fn):
+    """The `def` node of fn, with its file's line numbers, or None when its source cannot be read.
+
+    Each module's source is parsed once (block modules define many functions; reading each
+    one with inspect.getsource tokenizes its file again and cost a warm start tens of ms)."""
+    code = getattr(fn, "__code__", None)
+    if code is None:
+        return None
+    linecache.checkcache(code.co_filename)                 # an edited plugin is read again
+    lines = linecache.getlines(code.co_filename, getattr(fn, "__globals__", None))
+    defs = _module_defs(code.co_filename, "".join(lines)) if lines else {}
+    for node in defs.get(code.co_firstlineno, ()):
+        if node.name == code.co_name:
+            return node
+    try:                                                   # not found in its file: its own source
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+    except (OSError, TypeError, SyntaxError, IndentationError):
+        return None
+    if not tree.body or not isinstance(tree.body[0], (ast.FunctionDef, ast.AsyncFunctionDef)):
+        return None
+    ast.increment_lineno(tree, code.co_firstlineno - 1)
+    return tree.body[0]
+
+
+@functools.lru_cache(maxsize=4)      # block types are defined module by module
+def _module_defs(filename, text):
+    """{first line (decorators included): [def nodes]} of a module's source."""
+    try:
+        tree = ast.parse(text)
+    except (SyntaxError, ValueError):
+        return {}
+    defs, todo = {}, list(tree.body)
+    while todo:       # functions at module level and in classes (ast.walk of every node costs more)
+        node = todo.pop()
+        if isinstance(node, ast.ClassDef):
+            todo.extend(node.body)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            first = min([node.lineno] + [d.lineno for d in node.decorator_list])
+            defs.setdefault(first, []).append(node)
+    return defs
+
+
 def _attributes_read(fn, argname):
     """Names `argname.X` read in fn's source: which parameters `derive` depends on."""
-    try:
-        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
-    except (OSError, TypeError, SyntaxError):
+    tree = _function_tree(fn)
+    if tree is None:
         return None
     return {node.attr for node in ast.walk(tree)
             if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
@@ -408,13 +451,10 @@ _SCALAR = (ast.Constant, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare)
 
 def _returns(fn):
     """The `return` statements of fn itself (not of functions nested in it), or None."""
-    try:
-        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
-    except (OSError, TypeError, SyntaxError):
+    tree = _function_tree(fn)
+    if tree is None:
         return None
-    if not tree.body or not isinstance(tree.body[0], (ast.FunctionDef, ast.AsyncFunctionDef)):
-        return None
-    found, todo = [], list(tree.body[0].body)
+    found, todo = [], list(tree.body)
     while todo:
         node = todo.pop()
         if isinstance(node, ast.Return):
@@ -443,9 +483,8 @@ def _count(value, scalars=()):
 
 def _unassigned(fn, scalars):
     """The scalar arguments fn never rebinds (so a bare `return x` of one is one value)."""
-    try:
-        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
-    except (OSError, TypeError, SyntaxError):
+    tree = _function_tree(fn)
+    if tree is None:
         return set()
     stored = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, (ast.Store, ast.Del))}
     return set(scalars) & set(_arguments(fn)) - stored
@@ -461,7 +500,7 @@ def _return_count_problem(fn, expected, what, scalars=()):
             continue
         got = ("returns nothing" if n == 0 else "returns one value" if n == 1 else
                "returns values of different counts" if n < 0 else f"returns {n} values")
-        line = fn.__code__.co_firstlineno + ret.lineno - 1
+        line = ret.lineno
         return (f"{got} (line {line}) but the block declares {expected} {what}{'s' if expected != 1 else ''}: "
                 f"return {'one value' if expected == 1 else 'a tuple of ' + str(expected)}")
     return None

@@ -1,5 +1,7 @@
 """The contract every registered block type keeps: a valid schema, defaults that pass it, and a
 single-block patch (every input fed) that compiles both ways, agrees and stays finite."""
+import os
+
 import jsonschema
 import numpy as np
 import pytest
@@ -90,3 +92,40 @@ def test_live_param_is_an_input_port(write_patch):
     r = render(load(write_patch(text)), 100 / 44100, probes=["lfo.out", "g.out", "g.gain"])
     np.testing.assert_allclose(r.probes["g.out"], 2.0 * r.probes["lfo.out"])
     np.testing.assert_allclose(r.probes["g.gain"], r.probes["lfo.out"])
+
+
+def test_return_count_checked_for_a_block_defined_inside_a_function():
+    """Block types made in a function (not at module or class level) are read from their own
+    source, and the line named is the file's."""
+    import inspect
+    import re
+    from hapticgraph.blocks import Block, Out
+    with pytest.raises(BlockDefinitionError, match=re.escape("returns one value (line ")) as err:
+        class Made(Block, name="made_in_a_function"):
+            a = Out()
+            b = Out()
+
+            @staticmethod
+            def output():
+                return 1.0
+    line = int(re.search(r"\(line (\d+)\)", str(err.value)).group(1))
+    src, first = inspect.getsourcelines(test_return_count_checked_for_a_block_defined_inside_a_function)
+    assert src[line - first].strip() == "return 1.0"
+
+
+def test_an_edited_plugin_file_is_read_again(tmp_path):
+    """The source a definition check reads is the file as it is now, not as first read."""
+    import importlib.util
+    path = tmp_path / "edited_plugin.py"
+    head = "from hapticgraph.blocks import Block, Out\n\nclass P(Block, name='edited_p'):\n    y = Out()\n"
+    good = head + "    @staticmethod\n    def output():\n        return 1.0\n"
+    bad = head + "    @staticmethod\n    def output():\n        return 1.0, 2.0\n"
+    for text, fails in ((good, False), (bad, True)):
+        path.write_text(text)
+        os.utime(path, (1, len(text)))          # a new mtime even within the file system's tick
+        spec = importlib.util.spec_from_file_location("edited_plugin", path)
+        if fails:
+            with pytest.raises(BlockDefinitionError, match=r"returns 2 values \(line 7\)"):
+                spec.loader.exec_module(importlib.util.module_from_spec(spec))
+        else:
+            spec.loader.exec_module(importlib.util.module_from_spec(spec))
