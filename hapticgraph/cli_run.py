@@ -10,8 +10,6 @@ import sys
 from .cli_common import UsageError, audio_channels, device_choices
 from .devices import DeviceError, open_drivers
 from .devices.files import FileSink, OutputError
-from .devices.replay import replay_drivers
-from .devices.take import take_paths
 from .devices.wav import AudioFileError
 from .graph.engine import SafetyStop, StopRequest, stream
 from .graph.errors import PatchError
@@ -47,6 +45,7 @@ def _check_options(args, choices):
 def _replayed(patch, args):
     """The drivers of the take `--replay` names (checked against the patch); `--seconds` defaults
     to the take's length."""
+    from .devices.replay import replay_drivers     # takes (jsonschema, headers) only when replayed
     try:
         take, replayed = replay_drivers(patch, args.replay)
     except DeviceError as exc:
@@ -139,6 +138,7 @@ def _input_files(patch, replay=None):
     files += [os.path.join(base, spec["file"]) for spec in patch.devices.values()
               if isinstance(spec, dict) and isinstance(spec.get("file"), str)]
     if replay:
+        from .devices.take import take_paths
         files += [replay, *take_paths(replay)]
     return files
 
