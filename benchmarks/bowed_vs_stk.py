@@ -37,6 +37,7 @@ import tempfile
 import time
 
 import numpy as np
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 PATCH = HERE.parent / "patches" / "fig7_bowed_string.yaml"
@@ -192,12 +193,7 @@ def main(argv=None):
                                ("bare", bare_runs))}
     rate = {name: samples / s for name, s in best.items()}
     ratio = rate["kernel"] / rate["stk"]
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
+    cpu = benchlib.cpu_model()
     print(f"bowed string, {samples} samples ({args.seconds:g} s at {args.rate} Hz, {frequency:g} Hz), "
           f"best of {args.reps}; {cpu}, {os.cpu_count()} CPUs; Python {platform.python_version()}, "
           f"numba {numba.__version__}, {cxx_version}")

@@ -17,7 +17,6 @@ repeated (hold: false), so the simulated device keeps moving the bow.
 """
 import argparse
 import json
-import os
 import pathlib
 import statistics
 import subprocess
@@ -28,6 +27,7 @@ import time
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
+import benchlib  # noqa: E402
 import run_all  # noqa: E402
 
 
@@ -97,7 +97,7 @@ def measure(args, folder):
     samples = round(args.seconds * rate)
     envs = {}
     for k, py in enumerate(args.python):
-        envs[py] = dict(os.environ, HAPTICGRAPH_CACHE=str(folder / f"cache{k}"))
+        envs[py] = benchlib.child_env(HAPTICGRAPH_CACHE=str(folder / f"cache{k}"))
         run_all.timed(hg_exe(py) + ["run", str(patch), "--seconds", "0.1", "--out", str(folder / "w.wav")], envs[py])
     res = {py: {"whole": [], "kernel_alone": [], "loop": [], "kernel": [], "drivers": []} for py in args.python}
     stk = []

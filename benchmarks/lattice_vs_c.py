@@ -47,6 +47,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 RATE = 44100
@@ -581,15 +582,7 @@ def memory():
 # report
 # ---------------------------------------------------------------------------------------------
 def machine():
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = benchlib.cpu_model()
     import numba
     import numpy
     return (f"{cpu}, {os.cpu_count()} CPUs, Python {platform.python_version()}, numba {numba.__version__}, "

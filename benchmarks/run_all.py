@@ -35,6 +35,7 @@ import tempfile
 import time
 
 import numpy as np
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 README = HERE / "README.md"
@@ -184,7 +185,7 @@ def agree(row, patch, exes, rate, folder):
 
 def measure(args, folder):
     exes, versions = build(folder)
-    env = dict(os.environ, HAPTICGRAPH_CACHE=str(folder / "cache"))
+    env = benchlib.child_env(HAPTICGRAPH_CACHE=str(folder / "cache"))
     os.environ["HAPTICGRAPH_CACHE"] = env["HAPTICGRAPH_CACHE"]        # the user's cache stays untouched
     rows = []
     for row in ROWS:
@@ -226,12 +227,7 @@ def seconds_text(s):
 
 
 def machine(versions):
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
+    cpu = benchlib.cpu_model()
     import numba
     return (f"{cpu}, {os.cpu_count()} CPUs; Python {platform.python_version()}, numba {numba.__version__}, "
             f"numpy {np.__version__}; {versions[0]}; {versions[1]}")

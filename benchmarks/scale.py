@@ -34,6 +34,7 @@ import time
 
 import numpy as np
 import run_all
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 BEGIN, END = "<!-- scale:begin -->", "<!-- scale:end -->"
@@ -244,7 +245,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="hg-scale-") as folder:
         folder = pathlib.Path(folder)
         exes, versions = run_all.build(folder)
-        env = dict(os.environ, HAPTICGRAPH_CACHE=str(folder / "cache"))
+        env = benchlib.child_env(HAPTICGRAPH_CACHE=str(folder / "cache"))
         os.environ["HAPTICGRAPH_CACHE"] = env["HAPTICGRAPH_CACHE"]
         shapes = QUICK if args.quick else SHAPES
         agreements = {dim: agreement(exes["lattice"], folder, sizes[0]) for dim, sizes in shapes.items()}

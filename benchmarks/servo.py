@@ -30,6 +30,7 @@ import sys
 import time
 
 import numpy as np
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 FIG7 = HERE.parent / "patches" / "fig7_bowed_string.yaml"
@@ -40,12 +41,7 @@ GOAL = 3.0      # µs per call (issue 13)
 
 
 def machine():
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
-    except (OSError, StopIteration):
-        pass
+    cpu = benchlib.cpu_model()
     import numba
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return (f"{cpu}, {os.cpu_count()} CPUs, load average {load:.2f}; Python {platform.python_version()}, "

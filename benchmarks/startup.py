@@ -16,14 +16,10 @@ timed from process start to exit:
 Then `python -X importtime` of the warm run: the top-level imports that cost most, and
 `import hapticgraph` alone.
 
-Bytecode: the children run without PYTHONDONTWRITEBYTECODE (some sandboxes and CI images set
-it), so Python writes hapticgraph's .pyc files on the first (cold) run, as it does on a user's
-machine; a package installed with pip ships them. An editable install under
-PYTHONDONTWRITEBYTECODE=1 compiles hapticgraph's modules from source on every run instead
-(about 0.15 s more on the reference VM).
+Bytecode: the children run without PYTHONDONTWRITEBYTECODE (benchlib.child_env), so the cold
+run writes hapticgraph's .pyc files as Python does on a user's machine.
 """
 import argparse
-import os
 import pathlib
 import re
 import statistics
@@ -31,13 +27,11 @@ import subprocess
 import sys
 import tempfile
 import time
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 PATCHES = [HERE / "sheet_32.yaml", HERE / "string_100.yaml", HERE.parent / "patches" / "fig7_bowed_string.yaml"]
 EXE = pathlib.Path(sys.executable).with_name("hapticgraph")
-
-
-BASE_ENV = dict(os.environ)
 
 
 def run(patch, env, wav, extra=()):
@@ -66,7 +60,7 @@ def one_patch(patch, reps, folder):
     wav = folder / "out.wav"
     cold, warm, edited = [], [], []
     for r in range(reps):
-        env = dict(BASE_ENV, HAPTICGRAPH_CACHE=str(folder / f"cache{r}"))
+        env = benchlib.child_env(HAPTICGRAPH_CACHE=str(folder / f"cache{r}"))
         cold.append(run(patch, env, wav))
         warm.append(run(patch, env, wav))
         other = grown(patch, folder)
@@ -77,7 +71,7 @@ def one_patch(patch, reps, folder):
 
 def imports(patch, folder):
     """(seconds, module) of the costliest top-level imports of a warm run, and `import hapticgraph`."""
-    env = dict(BASE_ENV, HAPTICGRAPH_CACHE=str(folder / "cache0"))
+    env = benchlib.child_env(HAPTICGRAPH_CACHE=str(folder / "cache0"))
     out = subprocess.run([sys.executable, "-X", "importtime", str(EXE), "run", str(patch), "--seconds", "0.001",
                           "--out", str(folder / "out.wav"), "--quiet"], check=True, capture_output=True, text=True, env=env).stderr
     top = []
@@ -85,7 +79,7 @@ def imports(patch, folder):
         m = re.match(r"import time:\s+\d+ \|\s+(\d+) \| (\S.*)$", line)   # no indent: a top-level import
         if m:
             top.append((int(m.group(1)) / 1e6, m.group(2)))
-    alone = subprocess.run([sys.executable, "-X", "importtime", "-c", "import hapticgraph"], env=BASE_ENV,
+    alone = subprocess.run([sys.executable, "-X", "importtime", "-c", "import hapticgraph"], env=benchlib.child_env(),
                            check=True, capture_output=True, text=True).stderr.splitlines()[-1]
     return sorted(top, reverse=True), int(alone.split("|")[1]) / 1e6
 
@@ -95,7 +89,6 @@ def main(argv=None):
     ap.add_argument("patches", nargs="*", default=PATCHES)
     ap.add_argument("--reps", type=int, default=5)
     args = ap.parse_args(argv)
-    BASE_ENV.pop("PYTHONDONTWRITEBYTECODE", None)
     print(f"| patch | cold | warm | size edited (kernel re-used) |  (median of {args.reps}, seconds, process start to exit)")
     print("|---|---:|---:|---:|")
     with tempfile.TemporaryDirectory(prefix="hg-startup-") as folder:

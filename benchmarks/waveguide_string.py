@@ -35,6 +35,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import benchlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -403,15 +404,7 @@ def throughput(n, reps):
 # ---------------------------------------------------------------------------------------------
 # report
 # ---------------------------------------------------------------------------------------------
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+cpu_model = benchlib.cpu_model
 
 
 def fmt_compile(r):
