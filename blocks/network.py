@@ -173,18 +173,18 @@ class Network(Group):
             jk += [s.values["tension"]] * 2
         self.jrow, self.jcol, self.jk = _csr(n, np.array(jr, dtype=np.int64), np.array(jc, dtype=np.int64),
                                              np.array(jk, dtype=np.float64))
-        # the stencil fast path: one uniform lattice of 1 or 2 dimensions, nothing irregular
+        # the stencil fast path: one uniform lattice of 1, 2 or 3 dimensions, nothing irregular
         only = self.components[0] if len(self.components) == 1 else None
         self.scale = np.zeros((len(self.components), 3))   # per component: 1/mass, tension, damping
         self.inv_m0 = self.inv_m.copy()
         self.cut_cells = {}
         self.stencil = None
         self.drv = np.zeros(0, dtype=np.int64)    # the stencil's driven cells (wired), sorted
-        if self.stencils and only is not None and only.shape and len(only.shape) <= 2 and not self.springs \
+        if self.stencils and only is not None and only.shape and len(only.shape) <= 3 and not self.springs \
                 and not self.extra:
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
-                self.stencil = "string" if len(only.shape) == 1 else "sheet"
+                self.stencil = ("string", "sheet", "cube")[len(only.shape) - 1]
 
     def law(self, link):
         """The Law of a link here: a linear spring to an extra point runs as a law (the CSR lists
@@ -331,8 +331,9 @@ class Network(Group):
             return network_step_for(list(self.laws), points=bool(self.extra)), args
         comp = self.components[0]
         args = [Array("x"), Array("v"), Array("f"), Array("drv")]
-        if self.stencil == "sheet":
-            args += [Number(comp.shape[0], "int", "rows"), Number(comp.shape[1], "int", "cols")]
+        if len(comp.shape) > 1:                 # a sheet's rows and cols, a cube's planes, rows and cols
+            names = ("planes", "rows", "cols")[-len(comp.shape):]
+            args += [Number(extent, "int", name) for extent, name in zip(comp.shape, names)]
         args += [Control(comp.name, "mass", inverse=True), Control(comp.name, "tension"),
                  Control(comp.name, "damping"), dt, Flag(comp.inst.values["boundary"] == "fixed")]
         return getattr(lattice, f"{self.stencil}_step"), args

@@ -27,7 +27,10 @@ def reference(pos, vel, frc, shape, inv_mass, tension, damping, dt, fixed):
 
 
 @pytest.mark.parametrize("shape,driven", [((9,), [0, 3, 4, 8]), ((1,), [0]), ((2,), [1]),
-                                          ((5, 6), [0, 7, 8, 15, 29]), ((3, 1), [1]), ((1, 4), [2])])
+                                          ((5, 6), [0, 7, 8, 15, 29]), ((3, 1), [1]), ((1, 4), [2]),
+                                          ((4, 5, 6), [0, 32, 36, 45, 77, 82, 119]), ((3, 3, 3), [13]),
+                                          ((3, 3, 1), [4]), ((1, 4, 4), [5]), ((2, 3, 4), [17]), ((3, 1, 3), [4]),
+                                          ((5, 4, 2), [10, 11])])
 @pytest.mark.parametrize("fixed", [True, False])
 @pytest.mark.parametrize("compiled", [False, True], ids=["python", "compiled"])
 def test_stencil_reads_forces_only_where_driven(shape, driven, fixed, compiled):
@@ -38,19 +41,15 @@ def test_stencil_reads_forces_only_where_driven(shape, driven, fixed, compiled):
     frc, ref_frc = np.zeros(n), np.zeros(n)
     drv = np.array(driven, dtype=np.int64)
     args = (1000.0, 50.0, 0.02, 1 / 44100, fixed)
+    step = (lattice.string_step, lattice.sheet_step, lattice.cube_step)[len(shape) - 1]
     if compiled:
         register_helpers()
-        step = numba.njit(lattice.string_step if len(shape) == 1 else lattice.sheet_step)
-    else:
-        step = lattice.string_step if len(shape) == 1 else lattice.sheet_step
+        step = numba.njit(step)
     for t in range(50):
         force = np.sin(0.3 * t + np.arange(len(driven)))
         frc[drv] += force
         ref_frc[drv] += force
-        if len(shape) == 1:
-            step(pos, vel, frc, drv, *args)
-        else:
-            step(pos, vel, frc, drv, shape[0], shape[1], *args)
+        step(pos, vel, frc, drv, *(shape if len(shape) > 1 else ()), *args)
         reference(ref_pos, ref_vel, ref_frc, shape, *args)
         assert not frc.any(), "the step must clear the forces it read"
     # the reference sums the neighbours in another order: rounding only

@@ -515,7 +515,35 @@ connect:
     assert any("L.mass is driven by a connection" in note for note in net.notes)
 
 
-# -- stability refusal ---------------------------------------------------------------------------
+@pytest.mark.parametrize("boundary", ["fixed", "free"])
+def test_the_cube_stencil_moves_cells_as_the_csr_lists_do(write_patch, boundary):
+    """A uniform 3-D lattice runs on the 7-point stencil (cube_step); an editable session keeps it
+    on the CSR spring lists (network_step). 3000 samples of a pluck into an interior cell and
+    noise into a face cell: the same positions and velocities to rounding, everywhere in the
+    cube. The two sum the neighbours in another order; over 3000 steps those 1e-16 differences
+    grow to about 1e-12 of the peak in the free cube (its rigid mode integrates them), so 1e-10;
+    a wrong neighbour or a lost force is off by the signal itself."""
+    from hapticgraph.graph.engine import Session
+    text = (f"hapticgraph: 1\nrate: 44100\nblocks:\n"
+            f"  L: {{type: lattice, shape: [5, 4, 6], mass: 0.001, tension: 8.0e4, damping: 0.003, "
+            f"boundary: {boundary}}}\n"
+            f"  hit: {{type: pluck, time: 0.001, force: 1.0, duration: 0.0005}}\n"
+            f"  nz: {{type: noise, amplitude: 0.05, seed: 3}}\n"
+            f"connect:\n  - hit.out -> L[2, 1, 3].force\n  - nz.out -> L[0, 3, 5].force\n")
+    patch = load(write_patch(text))
+    cells = {}
+    for editable in (False, True):
+        s = Session(patch, editable=editable)
+        assert (s.prog.group_of["L"].group.stencil is None) == editable
+        s.process(3000)
+        cells[editable] = [v.copy() for v in s.prog.state_views("L")]
+    for stencil, csr in zip(cells[False], cells[True]):
+        assert np.max(np.abs(stencil)) > 0
+        np.testing.assert_allclose(stencil, csr, rtol=0, atol=1e-10 * np.max(np.abs(csr)))
+    assert cells[False][0].shape == (120,)
+
+
+# -- stability refusal -----------------------------------------------------------------------
 def _largest(err, what="tension"):
     import re
     m = re.search(rf"largest stable {what} ([0-9.e+]+) N/m", err)
@@ -571,6 +599,10 @@ EQUIVALENCE = {
     "overrides": ("L: {type: lattice, shape: [3, 4, 5], mass: 0.001, tension: 8.0e4, "
                   "cells: [{index: [1, 1, 1], mass: 0.003}, {index: [2, 2, 2], damping: 0.05}, "
                   "{index: [0, 0, 0], locked: true}]}", ["L[1, 1, 1]", "L[2, 3, 4]"]),
+    "cube": ("L: {type: lattice, shape: [4, 5, 6], mass: 0.001, tension: 8.0e4, damping: 0.002}",
+             ["L[1, 2, 3]", "L[2, 2, 5]", "L[0, 4, 1]"]),
+    "cube_free": ("L: {type: lattice, shape: [3, 4, 3], mass: 0.001, tension: 8.0e4, boundary: free}",
+                  ["L[1, 1, 1]", "L[2, 3, 2]"]),
     "4d": ("L: {type: lattice, shape: [3, 3, 4, 4], mass: 0.001, tension: 5.0e4, damping: 0.002}",
            ["L[1, 1, 1, 1]", "L[2, 2, 3, 0]"]),
     "joined": ("L: {type: lattice, shape: [12], mass: 0.001, tension: 1.0e5}\n"
