@@ -229,27 +229,27 @@ def string_step(pos, vel, frc, drv, inv_mass, tension, damping, dt, fixed):
 
 
 @helper
+def _pull(f, pos, i, step, lower, upper, fixed, xi):
+    """f plus the pull on cell i (position xi) of its two neighbours `step` apart along one axis;
+    a missing one (not `lower` / not `upper`) is the fixed boundary's ghost at 0, or nothing."""
+    if lower:
+        f += pos[i - step] - xi
+    elif fixed:
+        f -= xi
+    if upper:
+        f += pos[i + step] - xi
+    elif fixed:
+        f -= xi
+    return f
+
+
+@helper
 def _sheet_velocity(pos, vel, frc, r, c, rows, cols, w, tension, damping, fixed):
     """A cell's next velocity, its force included, with every boundary test (the edges)."""
     i = r * cols + c
     xi = pos[i]
-    f = 0.0
-    if r > 0:
-        f += pos[i - cols] - xi
-    elif fixed:
-        f -= xi
-    if r < rows - 1:
-        f += pos[i + cols] - xi
-    elif fixed:
-        f -= xi
-    if c > 0:
-        f += pos[i - 1] - xi
-    elif fixed:
-        f -= xi
-    if c < cols - 1:
-        f += pos[i + 1] - xi
-    elif fixed:
-        f -= xi
+    f = _pull(0.0, pos, i, cols, r > 0, r < rows - 1, fixed, xi)
+    f = _pull(f, pos, i, 1, c > 0, c < cols - 1, fixed, xi)
     return vel[i] + w * (tension * f + frc[i] - damping * vel[i])
 
 
@@ -304,31 +304,9 @@ def _cube_velocity(pos, vel, frc, a, b, c, planes, rows, cols, w, tension, dampi
     s0 = rows * cols
     i = a * s0 + b * cols + c
     xi = pos[i]
-    f = 0.0
-    if a > 0:
-        f += pos[i - s0] - xi
-    elif fixed:
-        f -= xi
-    if a < planes - 1:
-        f += pos[i + s0] - xi
-    elif fixed:
-        f -= xi
-    if b > 0:
-        f += pos[i - cols] - xi
-    elif fixed:
-        f -= xi
-    if b < rows - 1:
-        f += pos[i + cols] - xi
-    elif fixed:
-        f -= xi
-    if c > 0:
-        f += pos[i - 1] - xi
-    elif fixed:
-        f -= xi
-    if c < cols - 1:
-        f += pos[i + 1] - xi
-    elif fixed:
-        f -= xi
+    f = _pull(0.0, pos, i, s0, a > 0, a < planes - 1, fixed, xi)
+    f = _pull(f, pos, i, cols, b > 0, b < rows - 1, fixed, xi)
+    f = _pull(f, pos, i, 1, c > 0, c < cols - 1, fixed, xi)
     return vel[i] + w * (tension * f + frc[i] - damping * vel[i])
 
 
