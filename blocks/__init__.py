@@ -1,5 +1,5 @@
 """The block vocabulary and every built-in block type (`hapticgraph.blocks`)."""
-from .core import Block, BlockDefinitionError, Buffer, External, In, Out, Param, State, block_equation, helper
+from .vocabulary import Block, BlockDefinitionError, Buffer, External, In, Out, Param, State, block_equation, helper
 from . import control, controllers, coupling, device, excitation, io, lattice, links, reed, sources, waveguide
 
 

@@ -1,7 +1,7 @@
 """Control and utility blocks: constants, gains, sums, range mapping, sample-and-hold, envelope."""
 import math
 
-from .core import Block, In, Out, Param, State
+from .vocabulary import Block, In, Out, Param, State
 
 
 class Constant(Block, name="constant"):

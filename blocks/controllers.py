@@ -3,7 +3,7 @@ device's driver (hapticgraph.devices.midi / .osc) through External columns writt
 an event takes effect at its own sample, inside an audio block."""
 import math
 
-from .core import Block, External, Out, Param, State
+from .vocabulary import Block, External, Out, Param, State
 
 DEVICE_DOC = "the name of a controller entry under devices: (driver midi or osc)"
 A4 = 69.0          # MIDI note number of 440 Hz

@@ -7,7 +7,7 @@ Sign conventions shared by every block here: waves are velocity waves (m/s); a j
 """
 import math
 
-from .core import Block, Buffer, In, Out, Param, State, helper  # noqa: F401
+from .vocabulary import Block, Buffer, In, Out, Param, State, helper  # noqa: F401
 
 _IMPEDANCE_DOC = "wave impedance R0 of the string at the junction (a force F launches F/(2R0) each way)"
 

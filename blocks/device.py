@@ -4,7 +4,7 @@ out to the driver (which clamps it to the device's max_force); a driver may subs
 subclass that models the device itself (see hapticgraph.devices.simulated)."""
 import math
 
-from .core import Block, External, In, Out, Param, helper
+from .vocabulary import Block, External, In, Out, Param, helper
 
 
 @helper

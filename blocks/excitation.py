@@ -1,7 +1,7 @@
 """Excitations: force pulses, oscillators and seeded noise."""
 import math
 
-from .core import Block, In, Out, Param, State, helper
+from .vocabulary import Block, In, Out, Param, State, helper
 
 _M1, _M2 = 2147483563.0, 2147483399.0
 

@@ -10,7 +10,7 @@ the curve's steepest |dF/dΔv| ≤ N·(μs/ε + (μs − μd)/v0) (the table's s
 N = max(normal, range), to the damping γ of both points: dt·γ/m < 2 keeps the sticking phase
 from chattering.
 """
-from .core import helper
+from .vocabulary import helper
 from .coupling import _friction, _lookup
 from .laws import Law
 

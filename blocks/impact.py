@@ -18,7 +18,7 @@ A contact on a point without mass (ground, a driven point) takes that point's x�
 x[n] + dt·v[n−½]. Contacts sharing a cell are solved one after the other (each exact for the
 positions the previous ones left): energy is then conserved to the solver's residual only.
 """
-from .core import helper
+from .vocabulary import helper
 from .laws import Law
 
 TINY = 1e-9      # |δ[n+1] − δ[n−1]| below TINY·(|δ[n+1]| + |δ[n−1]|): V′ at the midpoint

@@ -1,7 +1,7 @@
 """Listening points and the patch's sound output."""
 import math
 
-from .core import Block, In, Out, Param
+from .vocabulary import Block, In, Out, Param
 
 
 class Mic(Block, name="mic"):

@@ -12,7 +12,7 @@ A cell's `position` output is x[n], its `velocity` v[n−½]; its `force` input 
 """
 import math
 
-from .core import Block, In, Out, Param, helper
+from .vocabulary import Block, In, Out, Param, helper
 from .network import (BYTES_PER_CELL, CELL_PORTS, MAX_CELLS, STABILITY_BOUND, MassSpring,  # noqa: F401
                       index_problem, stability_number)
 

@@ -26,7 +26,7 @@ import sys
 
 import numpy as np
 
-from .core import helper
+from .vocabulary import helper
 
 LAWS = {}
 

@@ -1,7 +1,7 @@
 """More members of the mass-spring family (issue 15): a driven `point`, the `hammer` and the
 `friction` link. Their points and laws: blocks/points.py, blocks/impact.py, blocks/friction.py.
 """
-from .core import Block, Out, Param
+from .vocabulary import Block, Out, Param
 from .network import MassSpring
 
 POINT_DOC = "a point: a cell block's name, lattice[i, j], a point block's name, or ground (x = 0)"

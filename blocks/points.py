@@ -17,7 +17,7 @@ every step of a network that has them:
 
 An extra point has no inverse mass in the network: the links move it not (a hammer moves itself).
 """
-from .core import helper
+from .vocabulary import helper
 
 GROUND = "ground"
 

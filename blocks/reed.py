@@ -14,7 +14,7 @@ cell blown above the threshold pressure oscillates by itself (the clarinet mecha
 Schumacher & Woodhouse 1983). The block reads `v` of the same sample, like `bow`: a cell's
 velocity output does not feed through, so a reed on a cell makes no algebraic loop.
 """
-from .core import Block, In, Out, Param
+from .vocabulary import Block, In, Out, Param
 
 
 class Reed(Block, name="reed"):

@@ -1,5 +1,5 @@
 """Signals from outside the patch: recorded or live audio."""
-from .core import Block, External, Out, Param
+from .vocabulary import Block, External, Out, Param
 
 
 class AudioIn(Block, name="audio_in"):

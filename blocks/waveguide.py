@@ -1,7 +1,7 @@
 """Waveguide building blocks: delay lines and loop filters."""
 import math
 
-from .core import Block, Buffer, In, Out, Param, State
+from .vocabulary import Block, Buffer, In, Out, Param, State
 
 
 class Delay(Block, name="delay"):

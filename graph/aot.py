@@ -260,7 +260,7 @@ def _module(kernel, args, folder, runtime):
     import numba
     from numba.core.compiler_lock import global_compiler_lock
     from numba.pycc import compiler
-    from ..blocks.core import register_helpers
+    from ..blocks.vocabulary import register_helpers
     from .numba_start import start
     start()
     register_helpers()

@@ -14,7 +14,7 @@ The runaway limit and every max_force are data (coef slots), so changing them ne
 """
 import math
 
-from ..blocks.core import helper
+from ..blocks.vocabulary import helper
 
 # what the check compares with when there is no runaway limit: every finite number passes
 NO_LIMIT = 1.7976931348623157e308

@@ -7,7 +7,7 @@ import os
 import re
 import sys
 
-from ..blocks.core import Block, Out, Param
+from ..blocks.vocabulary import Block, Out, Param
 from .errors import Problem
 from .ir import KernelSourceError
 from .kernel import CompiledKernel, note

@@ -294,7 +294,7 @@ def _module(name, source, filename):
 
 def _dispatcher(module, cached):
     import numba
-    from ..blocks.core import register_helpers
+    from ..blocks.vocabulary import register_helpers
     from .numba_start import start
     start()
     register_helpers()      # the @helper functions defined since the last compile

@@ -25,7 +25,7 @@ import re
 import sys
 import time
 
-from ..blocks.core import register_helpers
+from ..blocks.vocabulary import register_helpers
 from .errors import PatchError
 from .ir import KernelSourceError, ident
 from .numba_start import start as start_numba

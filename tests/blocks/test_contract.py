@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import single_block_patch
-from hapticgraph.blocks.core import BlockDefinitionError
+from hapticgraph.blocks.vocabulary import BlockDefinitionError
 from hapticgraph import render
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.registry import Registry

@@ -5,7 +5,7 @@ import numba
 import numpy as np
 import pytest
 from hapticgraph.blocks import lattice
-from hapticgraph.blocks.core import register_helpers
+from hapticgraph.blocks.vocabulary import register_helpers
 
 
 def reference(pos, vel, frc, shape, inv_mass, tension, damping, dt, fixed):
