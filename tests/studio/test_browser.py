@@ -1,0 +1,150 @@
+"""The studio in a real browser (issue 22, item 10): `hapticgraph studio` on loopback, Debian's
+chromium driven by Selenium. The page draws the running instrument (the canvas is not blank and
+new frames keep coming), a click on a cell moves a microphone (and the saved patch, and the sound
+rendered from it, change accordingly), a slider moves a live parameter, and a bad edit shows the
+loader's FILE:LINE: message and changes nothing. Screenshots are kept as artifacts."""
+import io
+import pathlib
+import re
+import shutil
+import statistics
+import time
+
+import numpy as np
+import pytest
+
+from browser_env import artifacts, browser_or_skip, chromium, open_page, send, studio, until
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SHEET = ROOT / "patches" / "cymatic_sheet.yaml"
+MIC_LINE = "  - sheet[8, 11].velocity -> mic1.in\n"
+# Frames drawn per second that the test asks for. Not a speed goal (benchmarks/studio_fps.py
+# measures that against 30 frames/s): this machine rasterises WebGL in software (SwiftShader) on
+# cores shared with other test workers, and the server offers 60 frames/s. At 5 frames/s the page
+# demonstrably keeps drawing new cell data from the running session, one frame per 200 ms, which
+# a stalled page (one frame, then nothing) or a page drawing without data (0) cannot reach.
+FPS_FLOOR = 5.0
+
+
+@pytest.fixture
+def sheet_patch(tmp_path):
+    browser_or_skip()
+    patch = tmp_path / "sheet.yaml"
+    shutil.copyfile(SHEET, patch)
+    assert MIC_LINE in patch.read_text()
+    return patch
+
+
+def _canvas_pixels(driver):
+    from PIL import Image
+
+    png = driver.find_element("css selector", "#view").screenshot_as_png
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=float)
+
+
+def test_page_draws_the_running_instrument(sheet_patch, tmp_path):
+    out = artifacts(tmp_path, "studio_draws")
+    with studio(sheet_patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        time.sleep(3)
+        readings = []
+        for _ in range(4):
+            time.sleep(1.05)
+            readings.append(driver.execute_script("return window.studio.fps"))
+        driver.save_screenshot(str(out / "studio_sheet.png"))
+        pixels = _canvas_pixels(driver)
+        info = driver.execute_script(
+            "return [window.studio.desc.lattices.map(l => [l.name, l.shape]), window.studio.view.parts[0].peak]")
+    assert info[0] == [["sheet", [12, 16]]]
+    assert info[1] > 1e-9, "the sheet never moved: no cell frame with displacement arrived"
+    # not blank: the canvas has the instrument's colours, not one background colour
+    colours = np.unique(pixels.reshape(-1, 3) // 8, axis=0)
+    assert pixels.std() > 5.0 and len(colours) > 50, (pixels.std(), len(colours))
+    assert statistics.median(readings) >= FPS_FLOOR, readings
+
+
+def _place_by_click(driver, block, cell_index):
+    """Chooses the microphone tool and `block`, then clicks the cell where the page draws it."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.support.ui import Select
+
+    Select(driver.find_element("css selector", "#tool")).select_by_value("mic")
+    Select(driver.find_element("css selector", "#place-which")).select_by_value(block)
+    canvas = driver.find_element("css selector", "#view")
+    spot = driver.execute_script(
+        "const v = window.studio.view, l = window.studio.desc.lattices[0];"
+        "const flat = arguments[0].reduce((a, i, k) => a * l.shape[k] + i, 0);"
+        "const p = v.screenOf(l.id, flat), r = v.canvas.getBoundingClientRect();"
+        "return [p.x - r.left - r.width / 2, p.y - r.top - r.height / 2];", cell_index)
+    ActionChains(driver).move_to_element_with_offset(canvas, round(spot[0]), round(spot[1])).click().perform()
+
+
+def test_a_click_on_a_cell_moves_the_microphone_into_the_saved_patch_and_the_sound(sheet_patch, tmp_path):
+    import hapticgraph
+
+    original = sheet_patch.read_text()
+    out = artifacts(tmp_path, "studio_mic")
+    with studio(sheet_patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        _place_by_click(driver, "mic1", [2, 3])
+        until(lambda: driver.execute_script(
+            "return window.studio.desc.microphones.find(m => m.block === 'mic1').cell") == "sheet[2, 3]",
+            30, "mic1 did not move to the clicked cell")
+        driver.save_screenshot(str(out / "studio_mic_moved.png"))
+        driver.find_element("css selector", "#save").click()
+        until(lambda: driver.find_element("css selector", "#save-dialog").is_displayed(), 20, "no save dialog")
+        diff = driver.find_element("css selector", "#save-diff").text
+        driver.save_screenshot(str(out / "studio_save_diff.png"))
+        assert "+  - sheet[2, 3].velocity -> mic1.in" in diff, diff
+        assert "-  - sheet[8, 11].velocity -> mic1.in" in diff, diff
+        driver.find_element("css selector", "#save-confirm").click()
+        until(lambda: sheet_patch.read_text() != original, 20, "the patch file was not written")
+    saved = sheet_patch.read_text()
+    assert saved == original.replace(MIC_LINE, "  - sheet[2, 3].velocity -> mic1.in\n")
+    # the sound of the saved patch is the sound of a microphone on sheet[2, 3]
+    by_hand = tmp_path / "by_hand.yaml"
+    by_hand.write_text(original.replace("sheet[8, 11].velocity -> mic1.in", "sheet[2, 3].velocity -> mic1.in"))
+    before = hapticgraph.render(hapticgraph.load(SHEET), seconds=0.25).audio
+    after = hapticgraph.render(hapticgraph.load(sheet_patch), seconds=0.25).audio
+    expected = hapticgraph.render(hapticgraph.load(by_hand), seconds=0.25).audio
+    assert np.array_equal(after, expected)
+    assert np.abs(after - before).max() > 1e-3 * np.abs(before).max()
+
+
+def test_a_slider_moves_a_live_parameter(sheet_patch, tmp_path):
+    from selenium.webdriver.common.keys import Keys
+
+    out = artifacts(tmp_path, "studio_slider")
+    with studio(sheet_patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        slider = driver.find_element("css selector", "#param-mic1-pan-slider")
+        slider.send_keys(*[Keys.ARROW_RIGHT] * 50)          # a range input sends input + change
+        target = driver.execute_script("return Number(document.querySelector('#param-mic1-pan').value)")
+        assert target > -0.5 + 1e-3
+
+        def pan_now():
+            reply = send(driver, {"cmd": "describe"})
+            return next(p["value"] for p in reply["result"]["params"] if (p["block"], p["param"]) == ("mic1", "pan"))
+        until(lambda: abs(pan_now() - target) < 1e-9, 20, f"mic1.pan did not follow the slider to {target}")
+        text = send(driver, {"cmd": "state"})["result"]["text"]
+        driver.save_screenshot(str(out / "studio_slider.png"))
+    assert re.search(r"mic1:\s+\{type: mic, gain: 2\.0, pan: " + re.escape(repr(target)) + r"\}", text), text
+
+
+def test_a_bad_edit_shows_the_loaders_error_and_changes_nothing(sheet_patch, tmp_path):
+    from selenium.webdriver.common.keys import Keys
+
+    out = artifacts(tmp_path, "studio_error")
+    with studio(sheet_patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        before = send(driver, {"cmd": "state"})["result"]["text"]
+        box = driver.find_element("css selector", "#param-sheet-tension")
+        box.clear()
+        box.send_keys("1e9", Keys.ENTER)
+        error = driver.find_element("css selector", "#error")
+        until(error.is_displayed, 20, "no error shown for an unstable tension")
+        driver.save_screenshot(str(out / "studio_error.png"))
+        message = error.text
+        after = send(driver, {"cmd": "state"})["result"]
+    assert re.match(r"^.*sheet\.yaml:\d+: .*sheet", message), message
+    assert after["text"] == before and after["undo"] == 0
