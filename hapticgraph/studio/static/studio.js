@@ -105,7 +105,7 @@ async function main() {
   link.on("event", (m) => {
     if (m.type === "changed") apply(m);
     else if (m.type === "problem") showError([m.message]);
-    else if (m.type === "status") $("#status").textContent = `t ${m.t.toFixed(1)} s · xruns ${m.xruns} · load ${(100 * m.load).toFixed(0)} %`;
+    else if (m.type === "status") (studio.status = m), $("#status").textContent = `t ${m.t.toFixed(1)} s · xruns ${m.xruns} · load ${(100 * m.load).toFixed(0)} %`;
   });
   link.on("close", () => showError(["studio: the connection to the studio closed"]));
   let hello;
