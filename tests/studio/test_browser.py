@@ -46,15 +46,16 @@ def test_page_draws_the_running_instrument(sheet_patch, tmp_path):
     out = artifacts(tmp_path, "studio_draws")
     with studio(sheet_patch, out) as url, chromium(out) as driver:
         open_page(driver, url)
-        time.sleep(3)
-        readings = []
-        for _ in range(4):
-            time.sleep(1.05)
-            readings.append(driver.execute_script("return window.studio.fps"))
+        assert send(driver, {"cmd": "restart"})["ok"]       # the pluck again, now that the page looks
+        time.sleep(1.0)
         driver.save_screenshot(str(out / "studio_sheet.png"))
         pixels = _canvas_pixels(driver)
         info = driver.execute_script(
             "return [window.studio.desc.lattices.map(l => [l.name, l.shape]), window.studio.view.parts[0].peak]")
+        readings = []
+        for _ in range(4):
+            time.sleep(1.05)
+            readings.append(driver.execute_script("return window.studio.fps"))
     assert info[0] == [["sheet", [12, 16]]]
     assert info[1] > 1e-9, "the sheet never moved: no cell frame with displacement arrived"
     # not blank: the canvas has the instrument's colours, not one background colour
@@ -119,8 +120,12 @@ def test_a_slider_moves_a_live_parameter(sheet_patch, tmp_path):
         open_page(driver, url)
         slider = driver.find_element("css selector", "#param-mic1-pan-slider")
         slider.send_keys(*[Keys.ARROW_RIGHT] * 50)          # a range input sends input + change
-        target = driver.execute_script("return Number(document.querySelector('#param-mic1-pan').value)")
-        assert target > -0.5 + 1e-3
+        # pan is declared on [-1, 1]: a linear slider of 1000 steps; 50 steps right of -0.5
+        position = int(slider.get_attribute("value"))
+        assert position == 300, position
+        target = -0.4
+        until(lambda: driver.execute_script("return Number(document.querySelector('#param-mic1-pan').value)") == target,
+              20, "the number beside the slider does not show the new pan")
 
         def pan_now():
             reply = send(driver, {"cmd": "describe"})

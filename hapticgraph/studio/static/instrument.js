@@ -61,12 +61,13 @@ export class Instrument {
     this.parts.forEach((p) => p && box.expandByObject(p.group));
     if (box.isEmpty()) return;
     const c = box.getCenter(new THREE.Vector3()), s = box.getSize(new THREE.Vector3());
-    // far enough that the whole box fits the narrower of the two view angles, seen from above-front
+    // far enough that the box's bounding sphere fits the narrower of the two view angles
     this._resize();
     const half = THREE.MathUtils.degToRad(this.camera.fov / 2);
-    const fit = Math.max(s.x / Math.max(this.camera.aspect, 0.1), s.z, s.y, 4) / 2 / Math.tan(half);
-    const dir = new THREE.Vector3(0.15, 0.8, 0.75).normalize();
-    this.camera.position.copy(c).addScaledVector(dir, 1.3 * fit + s.y);
+    const narrow = Math.min(half, Math.atan(Math.tan(half) * this.camera.aspect));
+    const radius = Math.max(s.length() / 2, 2 * SPACING);
+    const dir = new THREE.Vector3(0.15, 0.75, 0.8).normalize();
+    this.camera.position.copy(c).addScaledVector(dir, 1.02 * radius / Math.sin(narrow));
     this.controls.target.copy(c);
     this.controls.update();
   }

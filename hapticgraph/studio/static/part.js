@@ -6,11 +6,12 @@ import { restPositions, topology, kindOf, count, SPACING } from "./layout.js";
 
 const LOCKED = new THREE.Color(0x3a3a3a);
 const LIFT = 0.45 * SPACING;     // the loudest cell moves this far (display units)
-const DECAY = 0.985;             // per drawn frame: the colour scale follows a fading peak
+const DECAY = 0.9;               // per drawn frame: the colour scale follows a fast-fading peak (the
+                                 // sound decays slower, so a ringing instrument stays coloured)
 
 export function displacementColour(u, out, o) {
-  // u in [-1, 1]: blue (down) - near-white - red (up)
-  const a = Math.min(1, Math.abs(u));
+  // u in [-1, 1]: blue (down) - near-white - red (up); the square root lifts the quieter cells
+  const a = Math.sqrt(Math.min(1, Math.abs(u)));
   if (u >= 0) { out[o] = 0.92; out[o + 1] = 0.92 - 0.75 * a; out[o + 2] = 0.92 - 0.8 * a; }
   else { out[o] = 0.92 - 0.8 * a; out[o + 1] = 0.92 - 0.6 * a; out[o + 2] = 0.92; }
 }
