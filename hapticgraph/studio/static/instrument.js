@@ -40,7 +40,7 @@ export class Instrument {
     const key = JSON.stringify(lattices.map((l) => [l.name, l.shape]));
     if (key === this.key) { lattices.forEach((l) => this.parts[l.id].setCells(l.lockedFlat, l.cutFlat)); return; }
     this.key = key;
-    this.parts.forEach((p) => p && this.scene.remove(p.group));
+    this.parts.forEach((p) => p && (this.scene.remove(p.group), p.label.remove()));
     this.parts = [];
     let x = 0;
     for (const l of lattices) {
@@ -50,6 +50,8 @@ export class Instrument {
       x += part.size[0] + GAP;
       this.parts[l.id] = part;
       this.scene.add(part.group);
+      part.label = Object.assign(document.createElement("div"), { className: "label", textContent: `${l.name} [${l.shape.join(" × ")}]` });
+      this.canvas.parentElement.append(part.label);
     }
     this.parts.forEach((p) => { p.group.position.x -= (x - GAP) / 2; });
     this.scene.updateMatrixWorld();
@@ -81,8 +83,23 @@ export class Instrument {
     for (const p of this.parts) if (p && p.fresh) { p.paint(); fresh = true; }
     if (fresh) this._moveMarkers();
     this.renderer.render(this.scene, this.camera);
+    this._labels();
     if (fresh) this.drawn++;
     return fresh;
+  }
+
+  // each part's name above the far edge of its rest shape
+  _labels() {
+    const v = new THREE.Vector3(), r = this.canvas.getBoundingClientRect(), up = this.canvas.parentElement.getBoundingClientRect();
+    for (const p of this.parts) {
+      if (!p) continue;
+      v.set(0, p.size[1] / 2 + 0.8 * SPACING, -p.size[2] / 2 - 0.8 * SPACING);
+      p.group.localToWorld(v).project(this.camera);
+      const hide = v.z > 1 || Math.abs(v.x) > 1.2 || Math.abs(v.y) > 1.2;
+      p.label.style.display = hide ? "none" : "";
+      p.label.style.left = `${r.left - up.left + (v.x + 1) / 2 * r.width}px`;
+      p.label.style.top = `${r.top - up.top + (1 - v.y) / 2 * r.height}px`;
+    }
   }
 
   _resize() {

@@ -70,18 +70,21 @@ export class Modes {
     const canvas = $("#modes-spectrum"), g = canvas.getContext("2d"), w = canvas.width, h = canvas.height;
     if ($("#tab-modes").hidden) return;
     const sp = this.ctx.panels?.scopes?.spectrum();
-    const top = sp ? Math.min(20000, (sp.binHz * (sp.db.length - 1))) : 20000, lo = 20;
+    // up to a little past the highest predicted mode (or 5 kHz), so both can be compared
+    const predicted = this.networks.flatMap((n) => n.frequencies).filter((f) => f > 0);
+    const nyquist = sp ? sp.binHz * (sp.db.length - 1) : 22050, lo = 20;
+    const top = Math.min(nyquist, predicted.length ? Math.max(4 * Math.max(...predicted), 1000) : 5000);
     const xOf = (f) => (Math.log(f / lo) / Math.log(top / lo)) * w;
     g.fillStyle = "#101317"; g.fillRect(0, 0, w, h);
     if (sp) {
       let peak = -Infinity;
       for (const d of sp.db) peak = Math.max(peak, d);
-      g.strokeStyle = "#8fb3ff"; g.beginPath();
+      g.strokeStyle = "#8fb3ff"; g.beginPath(); g.moveTo(0, h);
       for (let k = 1; k < sp.db.length; k++) {
         const f = k * sp.binHz;
-        if (f < lo) continue;
+        if (f < lo || f > top) continue;
         const y = h * Math.min(1, (peak - sp.db[k]) / 90);
-        if (k === 1) g.moveTo(xOf(f), y); else g.lineTo(xOf(f), y);
+        g.lineTo(xOf(f), y);
       }
       g.stroke();
       g.fillStyle = "#8fb3ff"; g.fillText(`measured: ${sp.signal}`, 6, 12);
@@ -94,5 +97,7 @@ export class Modes {
       }
     }
     if (this.networks.length) g.fillText("predicted modes", w - 100, 12);
+    g.fillStyle = "#9aa6b5";
+    for (const f of [50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000]) if (f > lo && f < top) g.fillText(f >= 1000 ? `${f / 1000}k` : String(f), xOf(f) + 2, h - 3);
   }
 }

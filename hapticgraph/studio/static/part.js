@@ -55,35 +55,37 @@ export class Part {
     this.paint();
   }
 
+  // The skin and the overlays share the cells' position (and colour) buffers, so they are never
+  // disposed (that would free the shared buffers): a change only gives them a new index.
   _rebuildSkin() {
-    if (this.skin) { this.group.remove(this.skin); this.skin.geometry.dispose(); }
     const topo = topology(this.shape, [...this.cut]);
-    const g = new THREE.BufferGeometry();
-    g.setAttribute("position", this.position);
-    g.setAttribute("color", this.colour);
-    if (topo.lines.length) {
-      g.setIndex(topo.lines);
-      this.skin = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ vertexColors: true }));
-    } else if (topo.triangles.length) {
-      g.setIndex(topo.triangles);
-      this.skin = new THREE.Mesh(g, new THREE.MeshBasicMaterial({
-        vertexColors: true, side: THREE.DoubleSide, transparent: true, opacity: 0.85 }));
-    } else { this.skin = null; return; }
-    this.group.add(this.skin);
+    const index = topo.lines.length ? topo.lines : topo.triangles;
+    if (!this.skin) {
+      if (!index.length) return;
+      const g = new THREE.BufferGeometry();
+      g.setAttribute("position", this.position);
+      g.setAttribute("color", this.colour);
+      this.skin = topo.lines.length
+        ? new THREE.LineSegments(g, new THREE.LineBasicMaterial({ vertexColors: true }))
+        : new THREE.Mesh(g, new THREE.MeshBasicMaterial({ vertexColors: true, side: THREE.DoubleSide, transparent: true, opacity: 0.85 }));
+      this.group.add(this.skin);
+    }
+    this.skin.geometry.setIndex(index);
   }
 
   // A set of cells drawn again on top (locked cells, the selection), sharing the positions.
   _overlay(key, cells, colour, size) {
-    const old = this.overlays[key];
-    if (old) { this.group.remove(old); old.geometry.dispose(); }
-    const g = new THREE.BufferGeometry();
-    g.setAttribute("position", this.position);
-    g.setIndex(cells);
-    const p = new THREE.Points(g, new THREE.PointsMaterial({ color: colour, size, sizeAttenuation: true,
-      depthTest: key !== "selection" }));
-    p.renderOrder = key === "selection" ? 2 : 1;
-    this.overlays[key] = p;
-    this.group.add(p);
+    let p = this.overlays[key];
+    if (!p) {
+      const g = new THREE.BufferGeometry();
+      g.setAttribute("position", this.position);
+      p = new THREE.Points(g, new THREE.PointsMaterial({ color: colour, size, sizeAttenuation: true, depthTest: key !== "selection" }));
+      p.renderOrder = key === "selection" ? 2 : 1;
+      this.overlays[key] = p;
+      this.group.add(p);
+    }
+    p.geometry.setIndex(cells);
+    p.visible = cells.length > 0;
   }
 
   setSelection(cells) {
@@ -100,11 +102,12 @@ export class Part {
   paint() {
     const v = this.values, pos = this.position.array, col = this.colour.array, rest = this.rest;
     let peak = 0;
-    for (let f = 0; f < this.n; f++) peak = Math.max(peak, Math.abs(v[f]));
+    for (let f = 0; f < this.n; f++) { const a = Math.abs(v[f]); if (a > peak) peak = a; }   // NaN (cut) skipped
     this.peak = Math.max(peak, this.peak * DECAY, 1e-12);
     const k = 1 / this.peak;
     for (let f = 0, o = 0; f < this.n; f++, o += 3) {
-      const u = v[f] * k;
+      const x = v[f];
+      const u = x === x ? x * k : 0;          // a cut cell (NaN) rests where it was, unseen
       pos[o + 1] = rest[o + 1] + LIFT * u;
       if (this.locked.has(f)) { col[o] = LOCKED.r; col[o + 1] = LOCKED.g; col[o + 2] = LOCKED.b; }
       else displacementColour(u, col, o);

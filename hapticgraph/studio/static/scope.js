@@ -2,7 +2,7 @@
 // log frequency) on any signal `--probe` accepts; both freeze. The last seconds of the probed
 // signal are kept for the modes panel's measured spectrum.
 import uPlot from "./vendor/uplot/uPlot.esm.js";
-import { $, el } from "./dom.js";
+import { $, el, fmt } from "./dom.js";
 import { spectrumDb } from "./fft.js";
 
 const KEEP_S = 4;           // seconds of signal kept
@@ -20,7 +20,7 @@ export class Scopes {
     this.probeId = null;
     this.signal = null;
     this.plot = new uPlot({ width: 520, height: 200, scales: { x: { time: false } },
-      series: [{ label: "t [s]" }, { label: "value", stroke: "#3388ff", width: 1 }], axes: [{ stroke: "#aaa" }, { stroke: "#aaa" }] },
+      series: [{ label: "t [s]" }, { label: "value", stroke: "#3388ff", width: 1 }], axes: [{ stroke: "#aaa" }, { stroke: "#aaa", size: 70, values: (u, ticks) => ticks.map(fmt) }] },
     [[0], [0]], $("#scope"));
     ctx.link.on("probe", (f) => { if (f.id === this.probeId) this._take(f); });
     $("#probe-go").onclick = () => this.probe($("#probe-signal").value);

@@ -30,12 +30,22 @@ export function columns(names, edges) {
 }
 
 export class Wiring {
+  _curve(a, b, title, cls) {
+    if (!a || !b) return;
+    const x0 = a.x + W, y0 = a.y + H / 2, x1 = b.x, y1 = b.y + H / 2, bend = Math.max(40, Math.abs(x1 - x0) / 2);
+    const path = node("path", { d: `M${x0},${y0} C${x0 + bend},${y0} ${x1 - bend},${y1} ${x1},${y1}`, class: cls });
+    path.append(node("title", {}, title));
+    this.svg.append(path);
+  }
+
   constructor(ctx) { this.ctx = ctx; this.svg = document.getElementById("wiring"); }
 
   update(desc) {
     const names = desc.graph.blocks.map((b) => b.name);
     const types = Object.fromEntries(desc.graph.blocks.map((b) => [b.name, b.type]));
-    const edges = desc.graph.connections.map((c) => [blockOf(c.src), blockOf(c.dst)]);
+    // a join (a spring block naming two cells) sits between the two parts it joins
+    const joins = desc.joins.flatMap((j) => [[blockOf(j.a), j.block], [j.block, blockOf(j.b)]]);
+    const edges = desc.graph.connections.map((c) => [blockOf(c.src), blockOf(c.dst)]).concat(joins);
     const col = columns(names, edges);
     const rows = {}, at = {};
     for (const n of names) {
@@ -47,19 +57,17 @@ export class Wiring {
     const height = PAD * 2 + Math.max(1, ...Object.values(rows)) * DY;
     this.svg.innerHTML = "";
     this.svg.setAttribute("viewBox", `0 0 ${width} ${height}`);
-    this.svg.setAttribute("width", width);
-    this.svg.setAttribute("height", height);
+    this.svg.setAttribute("width", "100%");
+    this.svg.style.maxWidth = `${width}px`;
     const seen = new Set();
+    for (const [a, b] of joins) this._curve(at[a], at[b], `${a} ~ ${b}: joined by a spring`, "wire join");
     for (const c of desc.graph.connections) {
       const a = at[blockOf(c.src)], b = at[blockOf(c.dst)];
       const k = `${blockOf(c.src)}>${blockOf(c.dst)}`;
       if (!a || !b || seen.has(k)) continue;
       seen.add(k);
-      const x0 = a.x + W, y0 = a.y + H / 2, x1 = b.x, y1 = b.y + H / 2, bend = Math.max(40, Math.abs(x1 - x0) / 2);
-      const path = node("path", { d: `M${x0},${y0} C${x0 + bend},${y0} ${x1 - bend},${y1} ${x1},${y1}`, class: "wire" });
-      path.append(node("title", {}, desc.graph.connections.filter((d) => `${blockOf(d.src)}>${blockOf(d.dst)}` === k)
-        .map((d) => `${d.src} -> ${d.dst}`).join("\n")));
-      this.svg.append(path);
+      this._curve(a, b, desc.graph.connections.filter((d) => `${blockOf(d.src)}>${blockOf(d.dst)}` === k)
+        .map((d) => `${d.src} -> ${d.dst}`).join("\n"), "wire");
     }
     for (const n of names) {
       const g = node("g", { class: `wblock t-${types[n]}`, transform: `translate(${at[n].x},${at[n].y})` });
