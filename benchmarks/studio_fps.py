@@ -155,7 +155,7 @@ def open_page(driver, url):
         time.sleep(0.1)
 
 
-def measure_page(driver, url, seconds, screenshot=None):
+def measure_page(driver, url, seconds):
     """Per second: frames received, frames drawn, the server's xruns; after a 3 s warm-up."""
     open_page(driver, url)
     time.sleep(3)
@@ -169,23 +169,57 @@ def measure_page(driver, url, seconds, screenshot=None):
         received.append(r)
         drawn.append(d)
     last = status()
-    if screenshot:
-        driver.save_screenshot(screenshot)
     xruns = None if not (first and last) else last["xruns"] - first["xruns"]
     load = None if not last else last.get("load")
     return {"received": received, "drawn": drawn, "xruns": xruns, "xruns_total": last and last["xruns"], "load": load}
 
 
+def picture(path, env, folder):
+    """The README's picture: patches/string_drives_plate.yaml struck again, the scope open."""
+    demo = os.path.join(ROOT, "patches", "string_drives_plate.yaml")
+    with studio(demo, "none", env, folder) as url, browser() as driver:
+        open_page(driver, url)
+        driver.find_element("css selector", "#tabs button[data-tab=scope]").click()
+        driver.execute_async_script("const done = arguments[0]; window.studio.send({cmd: 'restart'}).then(done);")
+        time.sleep(1.5)
+        driver.save_screenshot(os.path.abspath(path))
+
+
+def server_alone(url, seconds):
+    """The studio's xruns over `seconds` with a script connected that asks for no cell frames."""
+    import json
+    from websockets.sync.client import connect
+    statuses = []
+    with connect(url.replace("http://", "ws://").replace("/?", "/ws?"), max_size=None) as ws:
+        ws.send(json.dumps({"id": 1, "cmd": "frames", "fps": 0}))
+        end = time.monotonic() + seconds + 3
+        while time.monotonic() < end:
+            try:
+                msg = ws.recv(timeout=max(0.01, end - time.monotonic()))
+            except TimeoutError:
+                break
+            if isinstance(msg, str):
+                m = json.loads(msg)
+                if m.get("type") == "status":
+                    statuses.append(m["xruns"])
+    # the first 3 s (connecting, the first status) are not counted, as for the page
+    return statuses[-1] - statuses[min(3, len(statuses) - 1)] if len(statuses) > 1 else None
+
+
 def run_case(label, patch, args, env, folder):
-    row = {"label": label}
+    row = {"label": label, "load_before": os.getloadavg()[0]}
     with studio(patch, args.audio, env, folder) as url, browser() as driver:
         row.update(measure_page(driver, url, args.seconds))
+    with studio(patch, args.audio, env, folder) as url:
+        row["server_xruns"] = server_alone(url, args.seconds)
     if args.audio == "card":
         row["play_xruns"] = play_alone(patch, args.seconds, env)
+    row["load_after"] = os.getloadavg()[0]
     d, r = row["drawn"], row["received"]
     print(f"  {label:>9}: drawn median {statistics.median(d):.1f} min {min(d):.1f} frames/s, received median "
-          f"{statistics.median(r):.1f}; studio xruns {row['xruns']} (total {row['xruns_total']}), "
-          f"play alone xruns {row.get('play_xruns', '-')}", flush=True)
+          f"{statistics.median(r):.1f}; xruns: studio + page {row['xruns']} (since start {row['xruns_total']}), "
+          f"studio without page {row['server_xruns']}, play alone {row.get('play_xruns', '-')}; "
+          f"load average {row['load_before']:.1f} -> {row['load_after']:.1f}", flush=True)
     return row
 
 
@@ -193,12 +227,14 @@ def table(rows, args):
     print(f"\n{cpu_model()}, {os.cpu_count()} cores; audio {args.audio}"
           f"{' (jackd -d dummy -p 64, 44.1 kHz)' if args.audio == 'card' else ' (paced by the clock)'}; "
           f"{args.seconds:.0f} s per lattice\n")
-    print("| lattice | cells | frames drawn/s median (min) | frames received/s median | studio xruns | play alone xruns |")
-    print("|---|---|---|---|---|---|")
+    print("| lattice | cells | frames drawn/s median (min) | frames received/s median | xruns: studio + page "
+          "| studio, no page | play alone | load average |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         cells = eval(r["label"].replace("x", "*"))   # noqa: S307 (our own labels)
         print(f"| {r['label'].replace('x', ' × ')} | {cells} | {statistics.median(r['drawn']):.1f} ({min(r['drawn']):.1f}) | "
-              f"{statistics.median(r['received']):.1f} | {r['xruns']} | {r.get('play_xruns', '—')} |")
+              f"{statistics.median(r['received']):.1f} | {r['xruns']} | {r['server_xruns']} | {r.get('play_xruns', '—')} | "
+              f"{r['load_before']:.1f} → {r['load_after']:.1f} |")
 
 
 def main(argv=None):
@@ -220,9 +256,7 @@ def main(argv=None):
                     continue
                 rows.append(run_case(label, write_patch(folder, label, shape), args, env, folder))
         if args.screenshot:
-            demo = os.path.join(ROOT, "patches", "string_drives_plate.yaml")
-            with studio(demo, "none", env, folder) as url, browser() as driver:
-                measure_page(driver, url, 2, screenshot=os.path.abspath(args.screenshot))
+            picture(args.screenshot, env, folder)
     table(rows, args)
 
 

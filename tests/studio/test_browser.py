@@ -153,3 +153,26 @@ def test_a_bad_edit_shows_the_loaders_error_and_changes_nothing(sheet_patch, tmp
         after = send(driver, {"cmd": "state"})["result"]
     assert re.match(r"^.*sheet\.yaml:\d+: .*sheet", message), message
     assert after["text"] == before and after["undo"] == 0
+
+
+def test_the_page_plays_the_sound_it_is_sent(sheet_patch, tmp_path):
+    """--audio browser: the page's AudioWorklet gets the audio frames and plays them (the ring
+    buffer it reports has filled), and what arrived is the instrument's sound, not silence."""
+    out = artifacts(tmp_path, "studio_audio")
+    with studio(sheet_patch, out, audio="browser") as url, chromium(out) as driver:
+        open_page(driver, url)
+        assert driver.execute_script("return window.studio.desc.audio.mode") == "browser"
+        driver.execute_script(
+            "window.heard = 0; window.studio.link.on('audio', (f) => {"
+            " for (const x of f.data) window.heard = Math.max(window.heard, Math.abs(x)); });")
+        driver.find_element("css selector", "#sound").click()
+        assert send(driver, {"cmd": "restart"})["ok"]
+        until(lambda: driver.execute_script("return window.studio.audio.buffered > 0"), 30,
+              "the worklet never had audio to play")
+        time.sleep(1.0)
+        stats = driver.execute_script("return window.studio.audio")
+        heard = driver.execute_script("return window.heard")
+        label = driver.find_element("css selector", "#sound").text
+    assert label == "Sound off"
+    assert stats["blocks"] > 20, stats
+    assert heard > 1e-4, heard

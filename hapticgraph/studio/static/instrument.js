@@ -27,6 +27,9 @@ export class Instrument {
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.1, 5000);
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.enableDamping = false;
+    // a still picture is not drawn again: only new cells, a camera move or an edit redraw it
+    this.dirty = true;
+    this.controls.addEventListener("change", () => { this.dirty = true; });
     this.parts = [];          // by lattice id
     this.markers = new THREE.Group();
     this.scene.add(this.markers);
@@ -38,6 +41,7 @@ export class Instrument {
   // lattices as the server's hello describes them; keeps the camera when the shapes did not change
   build(lattices) {
     const key = JSON.stringify(lattices.map((l) => [l.name, l.shape]));
+    this.dirty = true;
     if (key === this.key) { lattices.forEach((l) => this.parts[l.id].setCells(l.lockedFlat, l.cutFlat)); return; }
     this.key = key;
     this.parts.forEach((p) => p && (this.scene.remove(p.group), p.label.remove()));
@@ -56,6 +60,7 @@ export class Instrument {
     this.parts.forEach((p) => { p.group.position.x -= (x - GAP) / 2; });
     this.scene.updateMatrixWorld();
     this.frameAll();
+    this.dirty = true;
   }
 
   frameAll() {
@@ -81,6 +86,8 @@ export class Instrument {
     this._resize();
     let fresh = false;
     for (const p of this.parts) if (p && p.fresh) { p.paint(); fresh = true; }
+    if (!fresh && !this.dirty) return false;
+    this.dirty = false;
     if (fresh) this._moveMarkers();
     this.renderer.render(this.scene, this.camera);
     this._labels();
@@ -109,6 +116,7 @@ export class Instrument {
       this.renderer.setSize(w, h, false);
       this.camera.aspect = w / h;
       this.camera.updateProjectionMatrix();
+      this.dirty = true;
     }
   }
 
@@ -130,6 +138,7 @@ export class Instrument {
       this.markerList.push(line);
     }
     this._moveMarkers();
+    this.dirty = true;
   }
 
   _mark(item, mesh, kind) {
@@ -197,5 +206,6 @@ export class Instrument {
 
   setSelection(cells) {
     for (const p of this.parts) if (p) p.setSelection(cells.filter((c) => c.lattice === p.id).map((c) => c.flat));
+    this.dirty = true;
   }
 }

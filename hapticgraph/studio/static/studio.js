@@ -76,7 +76,7 @@ function measure() {
   let drawn = 0, recv = 0, renders = 0, t0 = performance.now();
   const loop = () => {
     if (view.draw()) drawn++;
-    renders++;
+    renders++;           // animation frames (the picture is redrawn only when something changed)
     const t = performance.now();
     if (t - t0 >= 1000) {
       studio.fps = Math.round((drawn * 1000) / (t - t0) * 10) / 10;
