@@ -219,5 +219,6 @@ def handle(st, msg, view):
         return {**reply, "ok": True, "result": result}
     except CommandError as exc:
         return {**reply, "ok": False, "error": exc.errors[0], "errors": exc.errors}
-    except st.PlanError as exc:
-        return {**reply, "ok": False, "error": f"studio: {exc}", "errors": [f"studio: {exc}"]}
+    except Exception as exc:  # noqa: BLE001 - a device that will not open, a full disk: said, not fatal
+        text = f"studio: {exc}" if isinstance(exc, st.PlanError) else f"studio: {type(exc).__name__}: {exc}"
+        return {**reply, "ok": False, "error": text, "errors": [text]}

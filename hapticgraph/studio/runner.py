@@ -93,11 +93,13 @@ class ClockRunner:
         session = self.session
         try:
             rec = session.process(n)
+            self.tap.block(session, rec)
         except SafetyStop as exc:
             self.problem = str(exc)
             self.on_problem(self.problem)
-            return
-        self.tap.block(session, rec)
+        except Exception as exc:  # noqa: BLE001 - the sound stops, the studio stays up and says why
+            self.problem = f"{type(exc).__name__}: {exc}"
+            self.on_problem(self.problem)
 
 
 class CardRunner:

@@ -100,8 +100,12 @@ def build_app(studio, token, host="127.0.0.1"):
     async def socket(websocket):
         await Connection(studio, websocket).run()
 
-    routes = [Route("/", page), WebSocketRoute("/ws", socket),
-              Mount("/static", app=StaticFiles(directory=STATIC, check_dir=False), name="static")]
+    async def missing(request):
+        return PlainTextResponse("hapticgraph studio: the page's files are not installed", status_code=404)
+
+    files = (Mount("/static", app=StaticFiles(directory=STATIC), name="static") if os.path.isdir(STATIC)
+             else Route("/static/{path:path}", missing))
+    routes = [Route("/", page), WebSocketRoute("/ws", socket), files]
     return Guard(Starlette(routes=routes), token, host)
 
 
@@ -170,7 +174,7 @@ class Connection:
             fps = self.view.fps
             await asyncio.sleep(1.0 / fps if fps > 0 else 0.2)
             frame = tap.frame
-            if fps <= 0 or frame is None or frame[0] == sent:
+            if self.view.fps <= 0 or frame is None or frame[0] == sent:
                 continue
             sent = frame[0]
             wanted = self.view.lattices

@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from .adapter import positions
-from .describe import bodies
+from .describe import alive, bodies
 
 CELLS, AUDIO, PROBE = 1, 2, 3
 AUDIO_CHUNK = 1024                    # samples per audio frame
@@ -96,11 +96,10 @@ class Tap:
         rate = session.rate
         self.bodies = []
         for i, (name, shape) in enumerate(bodies(prog.patch)):
-            values = prog.patch.blocks[name].values
-            cut = [tuple(int(v) for v in ix) for ix in values.get("cut", ())] if len(shape) > 0 else []
-            flat = np.array([np.ravel_multi_index(ix, shape) for ix in cut if len(ix) == len(shape)], dtype=np.int64)
-            self.bodies.append((i, shape, positions(session, name), flat,
-                                np.zeros(int(np.prod(shape)), dtype="<f4")))
+            where = alive(shape, prog.patch.blocks[name].values)
+            size = int(np.prod(shape))
+            self.bodies.append((i, shape, positions(session, name), None if len(where) == size else where,
+                                np.full(size, np.nan, dtype="<f4")))
         self.streams = []
         if self.audio and prog.channels:
             self.streams.append(_Chunker(AUDIO, 0, list(range(prog.channels)), AUDIO_CHUNK, rate))
@@ -129,10 +128,11 @@ class Tap:
         """The latest cell frame of every body (replacing any unsent one)."""
         self.counter += 1
         frames = []
-        for i, shape, pos, cut, buf in self.bodies:
-            np.copyto(buf, pos, casting="same_kind")
-            if cut.size:
-                buf[cut] = np.nan
+        for i, shape, pos, where, buf in self.bodies:
+            if where is None:
+                np.copyto(buf, pos, casting="same_kind")
+            else:                              # cut cells are not in the array: NaN in the frame
+                buf[where] = pos
             frames.append(cell_frame(i, self.counter, t, shape, buf))
         self.frame = (self.counter, frames)
 
