@@ -46,7 +46,7 @@ def submit(line, session, done=None):
     raise ValueError(f"unknown command {verb!r}; {HELP}")
 
 
-def _check_live(session.program, block, name):
+def _check_live(prog, block, name):
     """ValueError naming what `set BLOCK.PARAM` may name when `block` is no block, `name` is
     missing (a block without its parameter) or not one of the block's live parameters."""
     bp = prog.by_name.get(block)
