@@ -5,6 +5,7 @@ the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio
 """
 import asyncio
 import json
+import math
 import os
 import secrets
 from http.cookies import SimpleCookie
@@ -109,6 +110,17 @@ def build_app(studio, token, host="127.0.0.1"):
     return Guard(Starlette(routes=routes), token, host)
 
 
+def _finite(obj):
+    """`obj` with every NaN or infinite float replaced by None."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
 class Connection:
     """One WebSocket: commands in, replies, events and frames out (one send at a time)."""
 
@@ -119,8 +131,12 @@ class Connection:
         self.sending = asyncio.Lock()
 
     async def send_json(self, obj):
+        try:
+            text = json.dumps(obj, allow_nan=False, default=float)
+        except ValueError:                     # a NaN or an infinity: null, which JSON has
+            text = json.dumps(_finite(obj), allow_nan=False, default=float)
         async with self.sending:
-            await self.ws.send_text(json.dumps(obj, allow_nan=False, default=float))
+            await self.ws.send_text(text)
 
     async def send_bytes(self, data):
         async with self.sending:

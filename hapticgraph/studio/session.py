@@ -169,6 +169,8 @@ class StudioSession:
     def save(self, path=None):
         """Write the text atomically (a temporary file beside it, then renamed)."""
         target = self.path if path is None else os.path.join(os.path.dirname(self.path), os.fspath(path))
+        if not target.endswith((".yaml", ".yml")):
+            raise CommandError([f"studio: save: {path!r}: a patch is saved as a .yaml (or .yml) file"])
         folder = os.path.dirname(os.path.abspath(target))
         data = self.text.encode("utf-8")
         try:

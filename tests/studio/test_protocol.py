@@ -309,3 +309,12 @@ def test_audio_in_the_browser(tmp_path):
             assert all(b - a == n for a, b in zip(starts, starts[1:]))     # consecutive blocks, none lost
     finally:
         st.close()
+
+
+def test_save_as_writes_a_new_patch_beside_the_old_one(page, tmp_path):
+    page.ok("set", block="mic1", param="gain", value=1.5)
+    assert not page.send("save", path="notes.txt")["ok"]
+    result = page.ok("save", path="edited.yaml")
+    assert result["path"].endswith("edited.yaml") and (tmp_path / "edited.yaml").read_text().count("gain: 1.5") == 1
+    assert "gain: 2.0" in (tmp_path / "cymatic_sheet.yaml").read_text().split("mic1:")[1].splitlines()[0]
+    assert page.ok("state")["path"].endswith("edited.yaml")
