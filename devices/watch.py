@@ -80,7 +80,8 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
     view = copy.copy(new_patch)
     view.devices = changed_devices
     view.blocks = changed_inputs
-    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input)
+    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input,
+                          running=keep)
     drivers = dict(keep)
     drivers.update(opened)
     unused = [d for name, d in old_drivers.items() if drivers.get(name) is not d]

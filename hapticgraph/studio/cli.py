@@ -1,5 +1,6 @@
 """`hapticgraph studio PATCH`: load the patch, start its sound, serve the page (uvicorn) and print
 its URL with the token as the first line on standard output."""
+import signal
 import socket
 import sys
 import threading
@@ -52,6 +53,10 @@ def _audio_device(args, patch):
         raise UsageError(f"{exc} (--audio browser plays in the page, --audio none is silent)") from None
 
 
+def _quiet(signum, frame):
+    pass
+
+
 def cmd_studio(args):
     _check(args)
     choices = device_choices(args.device)
@@ -76,9 +81,14 @@ def cmd_studio(args):
     studio.start()
     if not args.no_browser:
         threading.Timer(0.3, webbrowser.open, (url,)).start()
+    # uvicorn stops gracefully on SIGINT/SIGTERM, then raises the signal again under the handler
+    # found before it: a quiet one, so that the studio closes its sound and exits 0
+    previous = {sig: signal.signal(sig, _quiet) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         server.run(sockets=[sock])
     finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
         studio.close()
         sock.close()
     return 0

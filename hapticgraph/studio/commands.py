@@ -132,9 +132,8 @@ def _text(st, msg, view):
 
 
 def _state(st, msg, view):
-    session = st.runner.session
     return {"text": st.text, "path": st.path, "dirty": st.text != st.saved, "problem": st.problem,
-            "undo": len(st.undo_stack), "redo": len(st.redo_stack), "t": session.t / session.rate}
+            "undo": len(st.undo_stack), "redo": len(st.redo_stack), "t": st.live.t / st.live.rate}
 
 
 def _modes(st, msg, view):
@@ -160,8 +159,8 @@ def _probe(st, msg, view):
     if signal not in st.probes:
         st.probes[signal] = max(st.probes.values(), default=0) + 1
         try:
-            st.swap(st.patch)
-        except st.PlanError as exc:
+            st.swap(st.patch, probes=list(st.probes))
+        except (st.PlanError, ValueError) as exc:
             del st.probes[signal]
             raise CommandError([st.where(signal.split("[")[0].split(".")[0], str(exc))]) from None
         st.tap.set_probes(st.probes)
@@ -174,7 +173,7 @@ def _unprobe(st, msg, view):
         if i == ident:
             del st.probes[signal]
             st.tap.set_probes(st.probes)
-            st.swap(st.patch)
+            st.swap(st.patch, probes=list(st.probes))
             return {}
     raise CommandError([f"studio: unprobe: no probe {ident}"])
 
@@ -188,7 +187,7 @@ def _frames(st, msg, view):
 
 
 def _restart(st, msg, view):
-    st.swap(st.patch, restart=True)
+    st.restart()
     return {}
 
 
@@ -219,5 +218,6 @@ def handle(st, msg, view):
         return {**reply, "ok": True, "result": result}
     except CommandError as exc:
         return {**reply, "ok": False, "error": exc.errors[0], "errors": exc.errors}
-    except st.PlanError as exc:
-        return {**reply, "ok": False, "error": f"studio: {exc}", "errors": [f"studio: {exc}"]}
+    except Exception as exc:  # noqa: BLE001 - a device that will not open, a full disk: said, not fatal
+        text = f"studio: {exc}" if isinstance(exc, st.PlanError) else f"studio: {type(exc).__name__}: {exc}"
+        return {**reply, "ok": False, "error": text, "errors": [text]}

@@ -1,43 +1,37 @@
 """The session thread: the patch running in real time, paced by the sound card (`--audio card`,
 through devices.audio.Player as `play`) or by the clock (`--audio none|browser`: blocks at the
-real-time rate). Edits land at block boundaries: live parameters queued on the session, an
-edited patch swapped in with its state carried over. A safety stop (NaN, runaway, a device lost)
-silences the sound until the next swap or restart."""
+real-time rate). Both call `Live.process` block by block, which applies what the studio queued
+(live parameters, a swapped-in patch) at the block boundary. A safety stop (NaN, runaway, a
+device lost) silences the sound until `resume` (the next edit or a restart)."""
 import threading
 import time
-
-import numpy as np
 
 from ..devices import audio
 from ..graph.engine import SafetyStop
 
-SWAP_TIMEOUT = 5.0
 BEHIND = 0.25          # seconds behind the clock after which the clock runner skips ahead
 
 
 class ClockRunner:
-    """Runs `session` block by block at the real-time rate on its own thread."""
+    """Runs the Live session block by block at the real-time rate on its own thread."""
 
-    def __init__(self, session, tap, on_problem):
-        self.session, self.tap, self.on_problem = session, tap, on_problem
+    def __init__(self, live, tap, on_problem):
+        self.live, self.tap, self.on_problem = live, tap, on_problem
         self.problem = None
-        self.pending = None
-        self.swapped = threading.Event()
         self.stopping = threading.Event()
         self.late = 0               # times the clock runner fell behind and skipped ahead
         self.busy = self.elapsed = 0.0
         self.thread = threading.Thread(target=self._loop, name="hapticgraph-studio", daemon=True)
 
     def start(self):
-        self.session.start()
+        self.live.start()
         self.thread.start()
         return self
 
     def stop(self):
         self.stopping.set()
-        if self.thread.is_alive() and self.thread is not threading.current_thread():
+        if self.thread.is_alive():
             self.thread.join(5.0)
-        self.session.stop()
 
     @property
     def xruns(self):
@@ -47,35 +41,14 @@ class ClockRunner:
     def load(self):
         return self.busy / self.elapsed if self.elapsed else 0.0
 
-    def swap(self, session, pairs, restart=False):
-        """Swap `session` in at the next block boundary (state from `pairs`, (dst, src); time
-        kept unless `restart`); True once it plays."""
-        self.swapped.clear()
-        self.pending = (session, pairs, restart)
-        if self.swapped.wait(SWAP_TIMEOUT):
-            return True
-        self.pending = None
-        return False
-
-    def _swap(self):
-        session, pairs, restart = self.pending
-        old = self.session
-        for dst, src in pairs:
-            np.copyto(dst, src)
-        session.t = 0 if restart else old.t
-        session.started = True
-        self.session = session
+    def resume(self):
         self.problem = None
-        self.pending = None
-        self.swapped.set()
 
     def _loop(self):
-        bs = self.session.blocksize
-        period = bs / self.session.rate
+        bs = self.live.blocksize
+        period = bs / self.live.rate
         due = time.perf_counter()
         while not self.stopping.is_set():
-            if self.pending is not None:
-                self._swap()
             if self.problem is None:
                 began = time.perf_counter()
                 self._block(bs)
@@ -90,34 +63,38 @@ class ClockRunner:
             self.elapsed += period
 
     def _block(self, n):
-        session = self.session
         try:
-            rec = session.process(n)
+            rec = self.live.process(n)
+            self.tap.block(self.live, rec)
         except SafetyStop as exc:
             self.problem = str(exc)
             self.on_problem(self.problem)
-            return
-        self.tap.block(session, rec)
+        except Exception as exc:  # noqa: BLE001 - the sound stops, the studio stays up and says why
+            self.problem = f"{type(exc).__name__}: {exc}"
+            self.on_problem(self.problem)
 
 
 class CardRunner:
     """Plays through the sound card with devices.audio.Player (as `play`); the tap takes frames
-    after each block (the Player's probe_out)."""
+    after each block (the Player's probe_out). After a safety stop the stream ends; `resume`
+    opens it again."""
 
-    def __init__(self, session, tap, on_problem, device=None, blocksize=256):
-        self.session, self.tap, self.on_problem = session, tap, on_problem
+    def __init__(self, live, tap, on_problem, device=None, blocksize=256):
+        self.live, self.tap, self.on_problem = live, tap, on_problem
         self.device, self.blocksize = device, blocksize
         self.problem = None
         self.player = None
-        self.resume = threading.Event()
+        self.again = threading.Event()
         self.stopping = threading.Event()
-        self.next = None
         self.flags = 0
-        tap.current = lambda: self.player.bound.session
+        tap.current = lambda: self.live
         self.thread = threading.Thread(target=self._loop, name="hapticgraph-studio-card", daemon=True)
 
+    def _open(self):
+        return audio.Player(self.live, device=self.device, blocksize=self.blocksize, probe_out=self.tap)
+
     def start(self):
-        self.player = audio.Player(self.session, device=self.device, blocksize=self.blocksize, probe_out=self.tap)
+        self.player = self._open()
         self.thread.start()
         return self
 
@@ -133,54 +110,44 @@ class CardRunner:
 
     def stop(self):
         self.stopping.set()
-        self.resume.set()
+        self.again.set()
         if self.player is not None:
             self.player.request_stop()
         if self.thread.is_alive():
             self.thread.join(5.0)
 
+    def resume(self):
+        if self.problem is not None:
+            self.again.set()
+
     def _loop(self):
         while not self.stopping.is_set():
             player = self.player
-            report = None
+            if player is None:
+                self.again.wait()
+                self.again.clear()
+                continue
             try:
                 report = player.run()
             except Exception as exc:  # noqa: BLE001 - reported to the page, the studio stays up
+                report = None
                 self.problem = f"{type(exc).__name__}: {exc}"
                 self.on_problem(self.problem)
             self.flags += sum(v for k, v in player.flag_counts.items() if k != "priming_output")
+            self.player = None
             if self.stopping.is_set():
                 break
             if report is not None and report.problem:
                 self.problem = report.problem
                 self.on_problem(self.problem)
-            self.resume.wait()           # a swap or a restart brings the next session
-            self.resume.clear()
-            if self.stopping.is_set() or self.next is None:
+            self.again.wait()
+            self.again.clear()
+            if self.stopping.is_set():
                 break
-            self.session, self.next = self.next, None
-            self.player = audio.Player(self.session, device=self.device, blocksize=self.blocksize,
-                                       probe_out=self.tap)
-            self.problem = None
-
-    def swap(self, session, pairs, restart=False):
-        """As ClockRunner.swap; a restart (or a swap after a safety stop) opens the stream again."""
-        player = self.player
-        if not restart and self.problem is None and not player.done.is_set():
-            bound = player.bind(session)
-            bound.carry = pairs
-            if player.offer(bound, SWAP_TIMEOUT):
-                self.session = session
-                return True
-            if not player.done.is_set():
-                return False
-        if not restart:                  # the stream has stopped: nothing runs the old session
-            for dst, src in pairs:
-                np.copyto(dst, src)
-            session.t = player.bound.session.t
-        session.started = True
-        self.next = session
-        if not player.done.is_set():
-            player.request_stop()
-        self.resume.set()
-        return True
+            try:
+                self.player = self._open()
+                self.problem = None
+            except audio.AudioError as exc:
+                self.problem = str(exc)
+                self.on_problem(self.problem)
+                self.player = None

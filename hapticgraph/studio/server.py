@@ -5,6 +5,7 @@ the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio
 """
 import asyncio
 import json
+import math
 import os
 import secrets
 from http.cookies import SimpleCookie
@@ -100,9 +101,24 @@ def build_app(studio, token, host="127.0.0.1"):
     async def socket(websocket):
         await Connection(studio, websocket).run()
 
-    routes = [Route("/", page), WebSocketRoute("/ws", socket),
-              Mount("/static", app=StaticFiles(directory=STATIC, check_dir=False), name="static")]
+    async def missing(request):
+        return PlainTextResponse("hapticgraph studio: the page's files are not installed", status_code=404)
+
+    files = (Mount("/static", app=StaticFiles(directory=STATIC), name="static") if os.path.isdir(STATIC)
+             else Route("/static/{path:path}", missing))
+    routes = [Route("/", page), WebSocketRoute("/ws", socket), files]
     return Guard(Starlette(routes=routes), token, host)
+
+
+def _finite(obj):
+    """`obj` with every NaN or infinite float replaced by None."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
 
 
 class Connection:
@@ -115,8 +131,12 @@ class Connection:
         self.sending = asyncio.Lock()
 
     async def send_json(self, obj):
+        try:
+            text = json.dumps(obj, allow_nan=False, default=float)
+        except ValueError:                     # a NaN or an infinity: null, which JSON has
+            text = json.dumps(_finite(obj), allow_nan=False, default=float)
         async with self.sending:
-            await self.ws.send_text(json.dumps(obj, allow_nan=False, default=float))
+            await self.ws.send_text(text)
 
     async def send_bytes(self, data):
         async with self.sending:
@@ -170,7 +190,7 @@ class Connection:
             fps = self.view.fps
             await asyncio.sleep(1.0 / fps if fps > 0 else 0.2)
             frame = tap.frame
-            if fps <= 0 or frame is None or frame[0] == sent:
+            if self.view.fps <= 0 or frame is None or frame[0] == sent:
                 continue
             sent = frame[0]
             wanted = self.view.lattices

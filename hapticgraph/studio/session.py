@@ -8,7 +8,7 @@ import sys
 import tempfile
 import threading
 
-from ..devices import open_drivers
+from ..devices import DeviceError
 from ..graph.errors import PatchError
 from ..graph.patch import load
 from . import adapter
@@ -17,6 +17,7 @@ from .runner import CardRunner, ClockRunner
 from .tap import Tap
 
 VERSION = 1
+SWAP_TIMEOUT = 10.0        # seconds a swap may wait for the sound to take it
 
 
 class CommandError(Exception):
@@ -49,12 +50,11 @@ class StudioSession:
         self.lock = threading.RLock()
         self.listeners = []
         self.tap = Tap(fps, audio=(audio == "browser"))
-        drivers = open_drivers(self.patch, self.choices)
-        session = adapter.open_session(self.patch, drivers, self.blocksize)
+        self.live = adapter.Live(adapter.open_session(self.patch, self.blocksize, devices=self.choices))
         if audio == "card":
-            self.runner = CardRunner(session, self.tap, self._on_problem, device=device, blocksize=self.blocksize)
+            self.runner = CardRunner(self.live, self.tap, self._on_problem, device=device, blocksize=self.blocksize)
         else:
-            self.runner = ClockRunner(session, self.tap, self._on_problem)
+            self.runner = ClockRunner(self.live, self.tap, self._on_problem)
 
     def start(self):
         self.runner.start()
@@ -62,6 +62,7 @@ class StudioSession:
 
     def close(self):
         self.runner.stop()
+        self.live.session.close()
 
     # -- events --------------------------------------------------------------------------------
     def _emit(self, event):
@@ -77,12 +78,11 @@ class StudioSession:
         d.update(version=VERSION, fps=self.fps, dirty=self.text != self.saved, undo=len(self.undo_stack),
                  redo=len(self.redo_stack), problem=self.problem,
                  audio={"mode": self.audio, "rate": self.patch.rate, "blocksize": self.blocksize,
-                        "channels": self.runner.session.prog.channels})
+                        "channels": self.live.session.channels})
         return d
 
     def status(self):
-        session = self.runner.session
-        return {"type": "status", "t": session.t / session.rate, "xruns": self.runner.xruns,
+        return {"type": "status", "t": self.live.t / self.live.rate, "xruns": self.runner.xruns,
                 "load": self.runner.load}
 
     # -- errors ---------------------------------------------------------------------------------
@@ -115,7 +115,7 @@ class StudioSession:
         patch = self.load_text(text)
         try:
             self.apply(patch)
-        except adapter.PlanError as exc:
+        except (adapter.PlanError, ValueError, DeviceError) as exc:
             raise CommandError([self.where(block, str(exc))]) from None
         return patch
 
@@ -125,33 +125,28 @@ class StudioSession:
 
     def apply(self, patch):
         """To the running sound: live parameters when only they changed, else a swap."""
-        session = self.runner.session
         changes = adapter.live_changes(self.patch, patch)
         if changes is not None and self.runner.problem is None:
-            adapter.check_live(session, changes)
-            adapter.apply_live(session, changes)
+            adapter.apply_live(self.live.session, changes)
             return
         self.swap(patch)
 
-    def swap(self, patch, restart=False):
-        """Compile `patch` (the old one keeps playing meanwhile) and swap it in."""
-        old = self.runner.session
+    def swap(self, patch, probes=None):
+        """Compile `patch` (the old one keeps playing meanwhile) and swap it in, keeping state."""
         switch = sys.getswitchinterval()
         sys.setswitchinterval(min(switch, 0.0002))       # let the sound thread in while compiling
         try:
-            drivers, opened, unused = adapter.drivers_for(old, patch, self.choices)
-            new = adapter.open_session(patch, drivers, self.blocksize, probes=list(self.probes))
-            pairs = [] if restart else adapter.carry(old, new)
+            queued = adapter.swap(self.live, patch, probes)
         finally:
             sys.setswitchinterval(switch)
-        for d in opened.values():
-            d.start(new.rate)
-        if not self.runner.swap(new, pairs, restart):
-            for d in opened.values():
-                d.stop()
+        self.runner.resume()
+        if not queued.wait(SWAP_TIMEOUT):
             raise adapter.PlanError("the sound did not take the edit in time; nothing changed")
-        for d in unused:
-            d.stop()
+        self.problem = None
+
+    def restart(self):
+        adapter.restart(self.live, self.patch, probes=list(self.probes))
+        self.runner.resume()
         self.problem = None
 
     def step(self, back):
@@ -174,6 +169,8 @@ class StudioSession:
     def save(self, path=None):
         """Write the text atomically (a temporary file beside it, then renamed)."""
         target = self.path if path is None else os.path.join(os.path.dirname(self.path), os.fspath(path))
+        if not target.endswith((".yaml", ".yml")):
+            raise CommandError([f"studio: save: {path!r}: a patch is saved as a .yaml (or .yml) file"])
         folder = os.path.dirname(os.path.abspath(target))
         data = self.text.encode("utf-8")
         try:

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from .adapter import positions
+from .adapter import cells_of
 from .describe import bodies
 
 CELLS, AUDIO, PROBE = 1, 2, 3
@@ -72,8 +72,8 @@ class Tap:
         self.seq = 0
         self.limit = 64
         self.probes = {}
-        self.session = None
-        self.current = None           # a callable giving the session playing now (the Player's)
+        self.bound = None             # the Program the views below are of (a swap makes another)
+        self.current = None           # a callable giving the Live session (the Player's probe_out)
 
     # the Player's probe_out interface
     def start(self, rate, channels, labels, path):
@@ -88,19 +88,16 @@ class Tap:
     def set_probes(self, probes):
         """{signal: id}; takes effect with the next session (its records include them)."""
         self.probes = dict(probes)
-        self.session = None
+        self.bound = None
 
-    def _bind(self, session):
-        prog = session.prog
+    def _bind(self, live):
+        prog = live.prog
         labels = [label for label, _ in prog.records]
-        rate = session.rate
+        rate = live.rate
         self.bodies = []
         for i, (name, shape) in enumerate(bodies(prog.patch)):
-            values = prog.patch.blocks[name].values
-            cut = [tuple(int(v) for v in ix) for ix in values.get("cut", ())] if len(shape) > 0 else []
-            flat = np.array([np.ravel_multi_index(ix, shape) for ix in cut if len(ix) == len(shape)], dtype=np.int64)
-            self.bodies.append((i, shape, positions(session, name), flat,
-                                np.zeros(int(np.prod(shape)), dtype="<f4")))
+            flat, where = cells_of(live.session, name)
+            self.bodies.append((i, shape, flat, where, np.full(int(np.prod(shape)), np.nan, dtype="<f4")))
         self.streams = []
         if self.audio and prog.channels:
             self.streams.append(_Chunker(AUDIO, 0, list(range(prog.channels)), AUDIO_CHUNK, rate))
@@ -110,29 +107,30 @@ class Tap:
                 self.streams.append(_Chunker(PROBE, ident, [labels.index(signal)], chunk, rate))
         per_second = (rate / AUDIO_CHUNK if self.audio else 0) + PROBE_PER_SECOND * len(self.probes)
         self.limit = max(8, int(per_second * max(AUDIO_KEEP, PROBE_KEEP if self.probes else 0)))
-        self.session = session
+        self.bound = prog
 
-    def block(self, session, rec):
-        """After each block: `rec` the block's records (audio channels first)."""
-        if session is not self.session:
-            self._bind(session)
+    def block(self, live, rec):
+        """After each block of `live` (adapter.Live): `rec` the block (audio channels first)."""
+        if live.prog is not self.bound:
+            self._bind(live)
         n = rec.shape[0]
-        t0 = session.t - n
+        t0 = live.t - n
         for s in self.streams:
             s.push(rec, t0, self._queue)
         now = time.monotonic()
         if self.fps > 0 and now - self.last >= 1.0 / self.fps:
             self.last = now
-            self.snapshot(session.t)
+            self.snapshot(live.t)
 
     def snapshot(self, t):
         """The latest cell frame of every body (replacing any unsent one)."""
         self.counter += 1
         frames = []
-        for i, shape, pos, cut, buf in self.bodies:
-            np.copyto(buf, pos, casting="same_kind")
-            if cut.size:
-                buf[cut] = np.nan
+        for i, shape, pos, where, buf in self.bodies:
+            if where is None:
+                np.copyto(buf, pos, casting="same_kind")
+            else:                              # cut cells are not in the array: NaN in the frame
+                buf[where] = pos
             frames.append(cell_frame(i, self.counter, t, shape, buf))
         self.frame = (self.counter, frames)
 
