@@ -102,12 +102,12 @@ def play_alone(patch, seconds, env):
 
 
 @contextlib.contextmanager
-def studio(patch, audio, env, folder):
+def studio(patch, audio, env, folder, cwd=None):
     args = [sys.executable, "-m", "hapticgraph", "studio", patch, "--no-browser", "--port", "0", "--audio", audio]
     if audio == "card":
         args += ["--audio-device", "system", "--blocksize", "64"]
     log = open(os.path.join(folder, "studio.log"), "a")
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=log, text=True, env=child_env(**env))
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=log, text=True, env=child_env(**env), cwd=cwd)
     try:
         lines = queue.Queue()
         threading.Thread(target=lambda: lines.put(proc.stdout.readline()), daemon=True).start()
@@ -176,8 +176,9 @@ def measure_page(driver, url, seconds):
 
 def picture(path, env, folder):
     """The README's picture: patches/string_drives_plate.yaml struck again, the scope open."""
-    demo = os.path.join(ROOT, "patches", "string_drives_plate.yaml")
-    with studio(demo, "none", env, folder) as url, browser() as driver:
+    # run from the repository with a relative path: the page shows the patch's path as given
+    with studio(os.path.join("patches", "string_drives_plate.yaml"), "none", env, folder, cwd=ROOT) as url, \
+            browser() as driver:
         open_page(driver, url)
         driver.find_element("css selector", "#tabs button[data-tab=scope]").click()
         driver.execute_async_script("const done = arguments[0]; window.studio.send({cmd: 'restart'}).then(done);")

@@ -45,7 +45,9 @@ export class History {
   }
 
   async save() {
-    const r = await this.ctx.send({ cmd: "save" });
+    const as = $("#save-as").value.trim();
+    const r = await this.ctx.send(as ? { cmd: "save", path: as } : { cmd: "save" });
+    if (r.ok) $("#save-as").value = "";
     $("#save-dialog").close();
     return r;
   }

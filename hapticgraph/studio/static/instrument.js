@@ -68,13 +68,25 @@ export class Instrument {
     this.parts.forEach((p) => p && box.expandByObject(p.group));
     if (box.isEmpty()) return;
     const c = box.getCenter(new THREE.Vector3()), s = box.getSize(new THREE.Vector3());
-    // far enough that the box's bounding sphere fits the narrower of the two view angles
+    // from above-front, as far as the bounding sphere needs, then closer until the box's corners
+    // fill most of the view (a long string beside a plate would otherwise be drawn small)
     this._resize();
     const half = THREE.MathUtils.degToRad(this.camera.fov / 2);
     const narrow = Math.min(half, Math.atan(Math.tan(half) * this.camera.aspect));
-    const radius = Math.max(s.length() / 2, 2 * SPACING);
     const dir = new THREE.Vector3(0.15, 0.75, 0.8).normalize();
-    this.camera.position.copy(c).addScaledVector(dir, 1.02 * radius / Math.sin(narrow));
+    let dist = 1.02 * Math.max(s.length() / 2, 2 * SPACING) / Math.sin(narrow);
+    for (let i = 0; i < 4; i++) {
+      this.camera.position.copy(c).addScaledVector(dir, dist);
+      this.camera.lookAt(c);
+      this.camera.updateMatrixWorld();
+      let reach = 0;
+      for (let k = 0; k < 8; k++) {
+        const p = new THREE.Vector3(k & 1 ? box.max.x : box.min.x, k & 2 ? box.max.y : box.min.y, k & 4 ? box.max.z : box.min.z).project(this.camera);
+        reach = Math.max(reach, Math.abs(p.x), Math.abs(p.y));
+      }
+      dist *= Math.max(0.5, Math.min(1.5, reach / 0.85));
+    }
+    this.camera.position.copy(c).addScaledVector(dir, dist);
     this.controls.target.copy(c);
     this.controls.update();
   }

@@ -46,6 +46,7 @@ export class Modes {
       shapes.set(l.id, Float32Array.from(r.result.values, (v) => (v === null ? NaN : v)));
     }
     this.shown = shapes;
+    this.picked = net.frequencies[mode - 1];
     this.t0 = performance.now();
     $("#modes-live").hidden = false;
     for (const tr of document.querySelectorAll("#modes-list tr.mode")) tr.classList.toggle("on", tr.dataset.mode === String(mode));
@@ -53,6 +54,7 @@ export class Modes {
   }
 
   live() {
+    this.picked = null;
     for (const id of this.shown.keys()) { const part = this.ctx.view.parts[id]; if (part) part.peak = 1e-12; }
     this.shown = new Map();
     $("#modes-live").hidden = true;
@@ -93,9 +95,12 @@ export class Modes {
     for (const net of this.networks) {
       for (const f of net.frequencies) {
         if (!(f > lo && f < top)) continue;
+        const mine = f === this.picked;        // the mode drawn on the instrument
+        g.lineWidth = mine ? 3 : 1; g.strokeStyle = mine ? "#ffd000" : "#ff5a4a";
         g.beginPath(); g.moveTo(xOf(f), 16); g.lineTo(xOf(f), h); g.stroke();
       }
     }
+    g.lineWidth = 1; g.fillStyle = "#ff5a4a";
     if (this.networks.length) g.fillText("predicted modes", w - 100, 12);
     g.fillStyle = "#9aa6b5";
     for (const f of [50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000]) if (f > lo && f < top) g.fillText(f >= 1000 ? `${f / 1000}k` : String(f), xOf(f) + 2, h - 3);

@@ -36,7 +36,7 @@ export class Part {
     this.geometry.setAttribute("position", this.position);
     this.geometry.setAttribute("color", this.colour);
     this.points = new THREE.Points(this.geometry, new THREE.PointsMaterial({
-      size: this.kind === "block" ? 0.45 : 0.22, vertexColors: true, sizeAttenuation: true }));
+      size: this.kind === "block" ? 0.45 : this.kind === "string" ? 0.35 : 0.22, vertexColors: true, sizeAttenuation: true }));
     this.points.userData.part = this;
     this.group.add(this.points);
     this.overlays = {};

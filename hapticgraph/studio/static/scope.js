@@ -7,7 +7,12 @@ import { spectrumDb } from "./fft.js";
 
 const KEEP_S = 4;           // seconds of signal kept
 const POINTS = 1500;        // the scope draws at most this many min/max pairs
-const HOP = 512, NFFT = 2048, FLOOR_DB = -90;
+const HOP = 512, NFFT = 4096, RANGE_DB = 70, PEAK_FALL_DB = 0.5;   // per column: the top of the scale falls slowly
+
+// dark blue - purple - orange - pale yellow
+function heat(v) {
+  return [Math.round(255 * Math.min(1, 1.6 * v)), Math.round(255 * Math.max(0, 1.4 * v - 0.4)), Math.round(60 + 120 * Math.sin(Math.PI * Math.min(1, v * 1.2))), 255];
+}
 
 export class Scopes {
   constructor(ctx) {
@@ -49,7 +54,7 @@ export class Scopes {
     this.signal = signal;
     $("#probe-signal").value = signal;
     if (r.result.rate !== this.rate) { this.rate = r.result.rate; this.buf = new Float32Array(KEEP_S * this.rate); }
-    this.len = 0; this.total = 0; this.lastColumn = 0;
+    this.len = 0; this.total = 0; this.lastColumn = 0; this.top = undefined;
     return r;
   }
 
@@ -90,14 +95,16 @@ export class Scopes {
     const db = spectrumDb(this.buf, end, NFFT);
     this.spec.drawImage(canvas, -1, 0);
     const top = Math.min(Number($("#spec-top").value), this.rate / 2), log = $("#spec-log").checked;
-    let peak = FLOOR_DB;
+    // one scale for the columns (a fading peak), so a decaying sound is seen to decay
+    let peak = -Infinity;
     for (let k = 1; k < db.length; k++) peak = Math.max(peak, db[k]);
+    this.top = Math.max(peak, (this.top ?? peak) - PEAK_FALL_DB);
     const img = this.spec.createImageData(1, h);
     for (let y = 0; y < h; y++) {
       const u = 1 - y / (h - 1);
       const f = log ? 20 * (top / 20) ** u : u * top;
-      const v = Math.min(1, Math.max(0, (db[Math.min(db.length - 1, Math.round((f * NFFT) / this.rate))] - peak - FLOOR_DB) / -FLOOR_DB));
-      img.data.set([Math.round(255 * Math.min(1, 2 * v)), Math.round(255 * Math.max(0, 2 * v - 1)), Math.round(90 * (1 - v) + 40 * v), 255], 4 * y);
+      const v = Math.min(1, Math.max(0, (db[Math.min(db.length - 1, Math.round((f * NFFT) / this.rate))] - this.top + RANGE_DB) / RANGE_DB));
+      img.data.set(heat(v), 4 * y);
     }
     this.spec.putImageData(img, w - 1, 0);
   }
