@@ -176,3 +176,46 @@ def test_the_page_plays_the_sound_it_is_sent(sheet_patch, tmp_path):
     assert label == "Sound off"
     assert stats["blocks"] > 20, stats
     assert heard > 1e-4, heard
+
+
+def test_box_select_lock_cut_undo_and_a_mode_shape(sheet_patch, tmp_path):
+    """The luthier's tools by hand: a shift-drag box selects cells, Lock and Cut write them into
+    the patch (`lock:`, `cut:`), Undo takes the cut back; Modes lists the sheet's modes and a
+    click draws one on the instrument."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    out = artifacts(tmp_path, "studio_tools")
+    with studio(sheet_patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        corners = driver.execute_script(
+            "const v = window.studio.view, r = v.canvas.getBoundingClientRect();"
+            "return [[0, 0], [3, 4]].map(([i, j]) => v.screenOf(0, i * 16 + j))"
+            ".map((p) => [p.x - r.left - r.width / 2, p.y - r.top - r.height / 2]);")
+        (x0, y0), (x1, y1) = corners
+        pad = 6
+        ActionChains(driver).move_to_element_with_offset(driver.find_element("css selector", "#view"),
+                                                         round(min(x0, x1)) - pad, round(min(y0, y1)) - pad) \
+            .key_down(Keys.SHIFT).click_and_hold().move_by_offset(round(abs(x1 - x0)) + 2 * pad, round(abs(y1 - y0)) + 2 * pad) \
+            .release().key_up(Keys.SHIFT).perform()
+        chosen = driver.execute_script("return window.studio.tools.selection.map((c) => c.flat).sort((a, b) => a - b)")
+        assert chosen == sorted(i * 16 + j for i in range(4) for j in range(5)), chosen
+        driver.find_element("css selector", "#lock").click()
+        until(lambda: len(driver.execute_script("return window.studio.desc.lattices[0].locked")) == 20, 30, "no lock")
+        driver.find_element("css selector", "#cut").click()
+        until(lambda: len(driver.execute_script("return window.studio.desc.lattices[0].cut")) == 20, 30, "no cut")
+        text = send(driver, {"cmd": "state"})["result"]["text"]
+        driver.save_screenshot(str(out / "studio_cut.png"))
+        driver.find_element("css selector", "#undo").click()
+        until(lambda: driver.execute_script("return window.studio.desc.lattices[0].cut.length") == 0, 30, "undo")
+        driver.find_element("css selector", "#tabs button[data-tab=modes]").click()
+        driver.find_element("css selector", "#modes-go").click()
+        until(lambda: len(driver.find_elements("css selector", "#modes-list tr.mode")) == 10, 60, "no modes listed")
+        driver.find_elements("css selector", "#modes-list tr.mode")[1].click()
+        until(lambda: driver.execute_script("return window.studio.view.parts[0].peak > 0.5"), 30, "mode 2 not drawn")
+        driver.save_screenshot(str(out / "studio_mode.png"))
+        frames_after_cut = driver.execute_script("return window.studio.link.received")
+        time.sleep(1.5)
+        frames_later = driver.execute_script("return window.studio.link.received")
+    assert re.search(r"lock: \[\[0, 0\], \[0, 1\],", text) and re.search(r"cut: \[\[0, 0\], \[0, 1\],", text), text
+    assert frames_later > frames_after_cut, "the running sound stopped sending cells after the cut"

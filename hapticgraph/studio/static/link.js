@@ -8,7 +8,8 @@ export class Link {
     this.next = 1;
     this.waiting = new Map();
     this.handlers = { event: [], cells: [], audio: [], probe: [], close: [] };
-    this.received = 0;         // cell frames received
+    this.received = 0;         // cell frames received (one per frame counter, however many lattices)
+    this.lastCounter = -1;
   }
 
   on(what, fn) { this.handlers[what].push(fn); }
@@ -57,9 +58,9 @@ export class Link {
     const head = new DataView(buf);
     const kind = head.getUint8(0);
     if (kind === KIND_CELLS) {
-      const ndim = head.getUint8(1), off = 16 + 4 * ndim;
-      this.received++;
-      const frame = { lattice: head.getUint16(2, true), counter: head.getUint32(4, true),
+      const ndim = head.getUint8(1), off = 16 + 4 * ndim, counter = head.getUint32(4, true);
+      if (counter !== this.lastCounter) { this.received++; this.lastCounter = counter; }
+      const frame = { lattice: head.getUint16(2, true), counter,
         sample: Number(head.getBigUint64(8, true)), values: new Float32Array(buf, off) };
       this.handlers.cells.forEach((f) => f(frame));
     } else if (kind === KIND_AUDIO || kind === KIND_PROBE) {

@@ -41,7 +41,13 @@ export class Scopes {
     for (const m of desc.microphones) names.push(`${m.block}.left`, `${m.block}.right`, m.cell && `${m.cell}.${m.port || "velocity"}`);
     for (const e of desc.excitations) names.push(`${e.block}.out`, e.cell && `${e.cell}.position`);
     for (const n of names) if (n) list.append(el("option", { value: n }));
-    if (!this.signal && desc.microphones.length) this.probe(`${desc.microphones[0].block}.left`, true);
+    this.first = desc.microphones.length ? `${desc.microphones[0].block}.left` : null;
+  }
+
+  // the first microphone is probed when a panel that shows a signal is first opened (a probe
+  // streams the signal at the full rate: not asked for while nobody looks)
+  wake() {
+    if (!this.signal && this.first) this.probe(this.first, true);
   }
 
   async probe(signal, quiet = false) {
@@ -71,7 +77,11 @@ export class Scopes {
     this.buf.set(d, this.len);
     this.len += d.length;
     this.total += d.length;
-    while (this.total - this.lastColumn >= HOP) { this.lastColumn += HOP; this._column(this.len - (this.total - this.lastColumn)); }
+    const shown = !$("#tab-scope").hidden && !document.hidden;
+    while (this.total - this.lastColumn >= HOP) {
+      this.lastColumn += HOP;
+      if (shown) this._column(this.len - (this.total - this.lastColumn));
+    }
   }
 
   _drawScope() {

@@ -93,10 +93,27 @@ function measure() {
 function tabs() {
   for (const b of document.querySelectorAll("#tabs button")) {
     b.onclick = () => {
+      if (b.dataset.tab === "scope" || b.dataset.tab === "modes") panels.scopes.wake();
       for (const o of document.querySelectorAll("#tabs button")) o.classList.toggle("on", o === b);
       for (const t of document.querySelectorAll(".tab")) t.hidden = t.id !== `tab-${b.dataset.tab}`;
     };
   }
+}
+
+// Ask the server for no more cell frames than the page draws: frames it would drop cost the
+// server and the page work beside the sound (a software-rendered page on a small machine).
+// A page that keeps up is offered more again, up to the server's rate; a hidden page gets none.
+function pace(drawn) {
+  const top = studio.desc.fps;
+  let want = document.hidden ? 0 : pace.offered;
+  if (!document.hidden && studio.received > 0) {
+    if (drawn < 0.8 * studio.received) want = Math.max(10, Math.round(1.25 * drawn));
+    else if (drawn >= 0.9 * studio.received) want = Math.min(top, Math.round(1.5 * want) || top);
+  }
+  if (want === pace.asked) return;
+  pace.asked = want;
+  pace.offered = want || pace.offered;
+  link.send({ cmd: "frames", fps: want }).catch(() => {});
 }
 
 async function main() {
@@ -123,6 +140,10 @@ async function main() {
   studio.tools = panels.tools;
   apply(hello);
   measure();
+  // a hidden page asks for no cell frames (the server then sends none), and for them again when seen
+  document.addEventListener("visibilitychange", () => pace(studio.fps));
+  setInterval(() => pace(studio.fps), 2000);
+  pace.offered = hello.fps;
   document.body.dataset.ready = "1";
 }
 

@@ -14,6 +14,7 @@ export class Tools {
     this._pointer();
     $("#tool").addEventListener("change", () => { this.joinFirst = null; this._fillWhich(); });
     $("#place-which").addEventListener("change", () => this._showPan());
+    $("#remove").onclick = () => this.ctx.send({ cmd: "remove", block: $("#place-which").value });
     $("#lock").onclick = () => this._cells("lock");
     $("#unlock").onclick = () => this._cells("unlock");
     $("#cut").onclick = () => this._cells("cut");
@@ -43,11 +44,13 @@ export class Tools {
     if (tool === "mic") which.append(el("option", { value: "", text: "+ new microphone" }));
     if (tool === "excite") for (const t of ["pluck", "wavetable", "noise"]) which.append(el("option", { value: `+${t}`, text: `+ new ${t}` }));
     which.hidden = !(tool === "mic" || tool === "excite");
+    $("#remove").hidden = which.hidden;
     if ([...which.options].some((o) => o.value === keep)) which.value = keep;
     this._showPan();
   }
 
   _showPan() {
+    $("#remove").disabled = !$("#place-which").value || $("#place-which").value.startsWith("+");
     const mic = this.desc.microphones.find((m) => m.block === $("#place-which").value && $("#tool").value === "mic");
     $("#mic-pan-row").hidden = !mic;
     if (mic) { $("#mic-pan-name").textContent = mic.block; $("#mic-pan").value = mic.pan; $("#mic-pan-value").textContent = fmt(mic.pan); }
