@@ -15,6 +15,7 @@ keeps its starting value (a patch for live play rendered or checked without the 
 """
 import math
 import os
+import threading
 from fractions import Fraction
 
 from .events import Hub, Tap
@@ -22,6 +23,8 @@ from .voices import CHANNEL_MESSAGES, Allocator, VoiceTap, resolve
 
 DEFAULT_TEMPO = 500000      # µs per beat: 120 beats per minute, the Standard MIDI File default
 APIS = {"auto": None, "jack": "UNIX_JACK", "alsa": "LINUX_ALSA"}
+POLL = 0.001                # seconds between two reads of an idle live port
+JOIN = 1.0                  # seconds a closing port waits for its reading thread
 
 
 def _error(message):
@@ -103,13 +106,23 @@ def port_lines():
 
 
 class PortReader:
-    """A live input port through python-rtmidi: the first whose name contains `port`."""
+    """A live input port through python-rtmidi (the first whose name contains `port`), read by a
+    thread of ours that polls the port's queue every POLL seconds.
+
+    Not rtmidi's callback: that runs Python on the MIDI system's own thread (JACK's process
+    thread, ALSA's input thread), which must take the GIL for it; and closing the port
+    (`close_port`, `delete`) holds the GIL while it waits for that thread to finish its cycle — so
+    a message arriving as the port closed deadlocked both (issue 21: `play` never exited under
+    JACK). Polled, the MIDI system's thread only fills rtmidi's queue and never waits for Python.
+    Each message is stamped with its arrival time: the previous stamp plus rtmidi's delta time
+    (the MIDI system's own clock), never later than now, so a burst read at once keeps its
+    spacing."""
 
     def __init__(self, hub, port, api="auto"):
         self.hub, self.port, self.api, self.midi_in = hub, port, api, None
+        self.thread, self.stopping = None, threading.Event()
 
     def open(self):
-        import mido
         import rtmidi
         seen = []
         for a in _rtmidi_apis(self.api):
@@ -123,26 +136,41 @@ class PortReader:
             if match is None:
                 midi_in.delete()
                 continue
-            parser = mido.Parser()
-
-            def received(event, _data=None, parser=parser):
-                parser.feed(event[0])
-                for message in parser:
-                    self.hub.post(message)
-            midi_in.set_callback(received)
             midi_in.ignore_types(sysex=True, timing=True, active_sense=True)
             midi_in.open_port(match, name="in")
-            self.midi_in = midi_in
+            self.midi_in, self.stopping = midi_in, threading.Event()
+            self.thread = threading.Thread(target=self._read, args=(midi_in, self.stopping), daemon=True,
+                                           name=f"midi in {self.hub.name}")
+            self.thread.start()
             return
         raise _error(f"device {self.hub.name!r}: no MIDI input port matching {self.port!r} "
                      f"(ports: {', '.join(seen) or 'none'}; `hapticgraph devices` lists them)")
 
+    def _read(self, midi_in, stopping):
+        import mido
+        parser, last = mido.Parser(), None
+        while not stopping.is_set():
+            got = midi_in.get_message()
+            if got is None:
+                stopping.wait(POLL)
+                continue
+            data, delta = got
+            now = self.hub.clock()
+            last = now if last is None else min(now, last + delta)
+            parser.feed(data)
+            for message in parser:
+                self.hub.post(message, last)
+
     def close(self):
+        """Stop reading (the thread first: nothing touches the port while it closes), then close."""
         midi_in, self.midi_in = self.midi_in, None
-        if midi_in is not None:
-            midi_in.cancel_callback()
-            midi_in.close_port()
-            midi_in.delete()
+        if midi_in is None:
+            return
+        self.stopping.set()
+        if self.thread is not None:
+            self.thread.join(JOIN)
+        midi_in.close_port()
+        midi_in.delete()
 
 
 class MidiHub(Hub):

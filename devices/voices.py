@@ -87,7 +87,7 @@ class Allocator:
         self.ends = {}                   # voice -> the absolute sample its one-sample note ends
         self.bend, self.pressure = [0.0] * 16, [0.0] * 16
         self.done = -1                   # the last absolute sample whose events are applied
-        self._block, self.cols = None, np.zeros((0, n, 5))
+        self._block, self.cols = None, np.zeros((n, 0, 5))
 
     def voice_for(self, note):
         """The voice a note-on of `note` (channel, key) takes (see the module's doc)."""
@@ -165,21 +165,21 @@ class Allocator:
         return due
 
     def block(self, t0, n):
-        """Every voice's columns for samples t0 … t0+n−1: an n × count × 5 array (computed once
-        per block, whichever voice asks first)."""
+        """Every voice's columns for samples t0 … t0+n−1: a count × n × 5 array, each voice's
+        rows contiguous (computed once per block, whichever voice asks first)."""
         if self._block == (t0, n):
             return self.cols
-        if self.cols.shape[0] != n:
-            self.cols = np.zeros((n, self.count, 5))
+        if self.cols.shape[1] != n:
+            self.cols = np.zeros((self.count, n, 5))
         cols, cursor, due = self.cols, 0, self._due(t0, n)
         for i in sorted(due):
-            cols[cursor:i] = self.rows
+            cols[:, cursor:i] = self.rows[:, None, :]
             cursor = i
             for v in self.at_sample(due[i], t0 + i):
                 if i > 0:
-                    cols[i - 1, v, GATE] = 0.0
+                    cols[v, i - 1, GATE] = 0.0
             self.done = t0 + i
-        cols[cursor:n] = self.rows
+        cols[:, cursor:n] = self.rows[:, None, :]
         self._block = (t0, n)
         return cols
 
@@ -194,7 +194,7 @@ class VoiceTap(Tap):
         super().__init__(hub, inst)
 
     def fill(self, t0, ext):
-        ext[:] = self.allocator.block(t0, ext.shape[0])[:, self.voice, :]
+        ext[:] = self.allocator.block(t0, ext.shape[0])[self.voice]
 
 
 __all__ = ["CHANNEL_MESSAGES", "Allocator", "VoiceTap", "is_note_off", "is_note_on", "resolve"]

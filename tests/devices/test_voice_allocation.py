@@ -33,7 +33,8 @@ def off(key, channel=0):
 def columns(events, count=3, n=200, block=64, channel=None):
     """n samples × count voices × 5 columns, computed block by block."""
     alloc = Allocator(Song(events), channel, count)
-    return np.concatenate([alloc.block(t0, min(block, n - t0)).copy() for t0 in range(0, n, block)])
+    return np.concatenate([alloc.block(t0, min(block, n - t0)).transpose(1, 0, 2).copy()
+                           for t0 in range(0, n, block)])
 
 
 def test_free_voice_first_never_used_then_released_longest_ago():
