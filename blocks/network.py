@@ -13,8 +13,9 @@ import numpy as np
 from .family import Array, Control, Family, Flag, Group, Number, Points, touching
 from .laws import network_step_for
 from . import points as pts
+from .numbers import whole_number
 
-_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
+_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,.]*)\])?\s*")
 IDX = np.uint32
 EXACT_CELLS = 250_000   # networks up to this many cells are checked cell by cell, larger by a bound
 CELL_PORTS = {"force": "input", "position": "output", "velocity": "output"}
@@ -52,7 +53,7 @@ def parse_ref(text):
     if m.group(2) is None:
         return m.group(1), None
     try:
-        return m.group(1), tuple(int(v) for v in m.group(2).split(","))
+        return m.group(1), tuple(whole_number(v) for v in m.group(2).split(","))   # s[2.0] is s[2]
     except ValueError:
         return None
 
@@ -652,9 +653,9 @@ class MassSpring(Family):
     def check(cls, blocks, problems, declared, rate):
         before = len(problems.problems)
         from .refs import check_springs
-        check_springs(blocks, problems, declared)
+        resolved = check_springs(blocks, problems, declared)   # not when a link names a block in error
         check_cells(blocks, problems)      # before anything sized by the cells is built
-        if len(problems.problems) == before:
+        if resolved and len(problems.problems) == before:
             check_stability(blocks, rate, problems)
 
     @classmethod

@@ -8,6 +8,7 @@ import re
 
 import jsonschema
 
+from ..blocks.numbers import whole_number
 from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
 from .family import check_families, kernel_cost
 from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
@@ -46,7 +47,7 @@ class Endpoint:
         m = _ENDPOINT.fullmatch(text)
         if not m or (m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]")):
             return None
-        index = None if m.group(2) is None else tuple(int(v) for v in m.group(2).split(","))
+        index = None if m.group(2) is None else tuple(whole_number(v) for v in m.group(2).split(","))
         return cls(m.group(1), index, m.group(3))
 
     @staticmethod

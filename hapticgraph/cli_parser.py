@@ -209,9 +209,10 @@ def _add_studio(sub):
                         help="address to serve on (default 127.0.0.1: this machine only)")
     studio.add_argument("--port", type=int, default=0, help="port (default 0: any free one)")
     studio.add_argument("--no-browser", action="store_true", help="do not open a browser")
-    studio.add_argument("--audio", choices=("card", "browser", "none"), default="card",
-                        help="card: the sound card paces the sound, as play (default); browser: paced by the "
-                             "clock and sent to the page; none: paced by the clock, silent")
+    studio.add_argument("--audio", choices=("card", "browser", "none"), default=None,
+                        help="card: the sound card paces the sound, as play; browser: paced by the clock and "
+                             "played by the page; none: paced by the clock, silent (default: card when a sound "
+                             "card opens, else browser)")
     studio.add_argument("--audio-device", metavar="D", help="with --audio card: the output device, as in play")
     studio.add_argument("--blocksize", type=int, default=256, metavar="N", help="samples per block (default 256)")
     studio.add_argument("--fps", type=float, default=60.0, help="most cell frames a second sent to a page (default 60)")

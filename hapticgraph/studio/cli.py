@@ -41,16 +41,25 @@ def _bind(host, port):
 
 
 def _audio_device(args, patch):
-    if args.audio != "card":
+    """The output device with --audio card; without --audio, the sound card when one opens,
+    else the page plays the sound (a headless or remote machine): args.audio is set to what runs."""
+    if args.audio not in (None, "card"):
         if args.audio_device:
             raise UsageError("--audio-device goes with --audio card")
         return None
     from ..devices import audio
     try:
         audio.sounddevice()
-        return audio.find_device(args.audio_device, "output", max(1, audio_channels(patch)))
+        device = audio.find_device(args.audio_device, "output", max(1, audio_channels(patch)))
     except audio.AudioError as exc:
-        raise UsageError(f"{exc} (--audio browser plays in the page, --audio none is silent)") from None
+        if args.audio == "card":
+            raise UsageError(f"{exc} (--audio browser plays in the page, --audio none is silent)") from None
+        print(f"hapticgraph: note: no sound card ({exc}); the sound plays in the page (--audio browser)",
+              file=sys.stderr)
+        args.audio = "browser"
+        return None
+    args.audio = "card"
+    return device
 
 
 def _quiet(signum, frame):

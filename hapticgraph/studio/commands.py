@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from ..graph.modes import mode_shape, network_modes
+from ..graph.modes import BudgetError, mode_shape, network_modes
 from . import edits
 from .edits import EditError, parse_cell
 from .session import CommandError
@@ -140,7 +140,10 @@ def _modes(st, msg, view):
     count = _field(msg, "count", int, 10)
     if not 1 <= count <= MAX_MODES:
         raise CommandError([f"studio: modes: count must be 1 … {MAX_MODES}"])
-    return {"networks": [m.as_dict() for m in network_modes(st.patch, count)]}
+    try:
+        return {"networks": [m.as_dict() for m in network_modes(st.patch, count)]}
+    except BudgetError as exc:             # more modes than fit in memory: the largest count that does
+        raise CommandError([f"studio: modes: {exc}"]) from None
 
 
 def _mode_shape(st, msg, view):

@@ -3,8 +3,6 @@ excitations, microphones, the wiring graph and every numeric parameter's declara
 `hello` / `describe` object of docs/studio.md)."""
 import math
 
-import numpy as np
-
 from ..blocks.network import STABILITY_BOUND
 from . import yamltext as yt
 from .edits import cell_text, plain
@@ -23,16 +21,6 @@ def bodies(patch):
         elif inst.cls.type_name == "cell":
             out.append((name, (1,)))
     return out
-
-
-def alive(shape, values):
-    """The full-shape indices (C order) of a body's cells that are not cut, ascending: where the
-    engine's flat arrays of that body (one entry per cell not cut) sit in the full shape."""
-    full = np.ones(int(np.prod(shape)), dtype=bool)
-    for ix in values.get("cut", ()) if len(shape) else ():
-        if len(ix) == len(shape):
-            full[np.ravel_multi_index(tuple(int(i) for i in ix), shape)] = False
-    return np.flatnonzero(full)
 
 
 def _joins(patch):

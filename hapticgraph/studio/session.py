@@ -7,6 +7,7 @@ import os
 import sys
 import tempfile
 import threading
+import time
 
 from ..devices import DeviceError
 from ..graph.errors import PatchError
@@ -17,7 +18,7 @@ from .runner import CardRunner, ClockRunner
 from .tap import Tap
 
 VERSION = 1
-SWAP_TIMEOUT = 10.0        # seconds a swap may wait for the sound to take it
+SWAP_TIMEOUT = 120.0       # seconds a compiled swap may wait for the sound thread (a loaded machine)
 
 
 class CommandError(Exception):
@@ -140,9 +141,21 @@ class StudioSession:
         finally:
             sys.setswitchinterval(switch)
         self.runner.resume()
-        if not queued.wait(SWAP_TIMEOUT):
-            raise adapter.PlanError("the sound did not take the edit in time; nothing changed")
+        if not self._taken(queued):
+            raise adapter.PlanError("the sound did not take the edit (it has stopped); nothing changed")
         self.problem = None
+
+    def _taken(self, queued):
+        """Wait for the sound thread's next block boundary, however loaded the machine (the
+        compile is done already): True once the swap plays; False if the sound stopped or
+        after SWAP_TIMEOUT (the swap is withdrawn then)."""
+        deadline = time.monotonic() + SWAP_TIMEOUT
+        while time.monotonic() < deadline:
+            if queued.applied.wait(0.05):
+                return queued.wait(0)
+            if self.runner.problem is not None and self.audio == "card" and self.runner.player is None:
+                break
+        return queued.wait(0)
 
     def restart(self):
         adapter.restart(self.live, self.patch, probes=list(self.probes))

@@ -150,3 +150,17 @@ def test_the_sound_card_paces_the_studio(sheet, tmp_path):
     played = (frames[-1][4] - frames[0][4]) / 44100
     assert 0 < played < 3.0 * wall + 0.5                      # paced by the card, not as fast as possible
     assert after[0][4] > frames[-1][4]                        # the swap kept the clock running
+
+
+def test_without_audio_option_the_page_plays_when_there_is_no_sound_card(sheet, tmp_path):
+    env = dict(os.environ, XDG_CONFIG_HOME=str(tmp_path), JACK_NO_START_SERVER="1",
+               JACK_DEFAULT_SERVER="hapticgraph-no-server")      # no JACK server: only what ALSA has
+    proc, line = start(sheet, env=env)
+    try:
+        port, token = FIRST_LINE.fullmatch(line).groups()
+        with connect(f"ws://127.0.0.1:{port}/ws?token={token}", open_timeout=10, max_size=None) as ws:
+            mode = json.loads(ws.recv(timeout=30))["audio"]["mode"]
+    finally:
+        stop(proc)
+    err = proc.stderr.read()
+    assert mode == ("browser" if "no sound card" in err else "card"), err
