@@ -63,6 +63,13 @@ export class Instrument {
     this.dirty = true;
   }
 
+  // "3d" (above-front) or "top" (straight down: rows and columns of a sheet line up with the screen)
+  look(from) {
+    this.from = from;
+    this.frameAll();
+    this.dirty = true;
+  }
+
   frameAll() {
     const box = new THREE.Box3();
     this.parts.forEach((p) => p && box.expandByObject(p.group));
@@ -73,7 +80,7 @@ export class Instrument {
     this._resize();
     const half = THREE.MathUtils.degToRad(this.camera.fov / 2);
     const narrow = Math.min(half, Math.atan(Math.tan(half) * this.camera.aspect));
-    const dir = new THREE.Vector3(0.15, 0.75, 0.8).normalize();
+    const dir = this.from === "top" ? new THREE.Vector3(0, 1, 1e-4).normalize() : new THREE.Vector3(0.15, 0.75, 0.8).normalize();
     let dist = 1.02 * Math.max(s.length() / 2, 2 * SPACING) / Math.sin(narrow);
     for (let i = 0; i < 4; i++) {
       this.camera.position.copy(c).addScaledVector(dir, dist);

@@ -4,6 +4,7 @@
 import { $, el, fmt } from "./dom.js";
 
 const SWING_HZ = 0.8;
+const SILENT_DB = -200;          // |X|² below 1e-20: nothing to compare with
 
 export class Modes {
   constructor(ctx) {
@@ -78,9 +79,10 @@ export class Modes {
     const top = Math.min(nyquist, predicted.length ? Math.max(4 * Math.max(...predicted), 1000) : 5000);
     const xOf = (f) => (Math.log(f / lo) / Math.log(top / lo)) * w;
     g.fillStyle = "#101317"; g.fillRect(0, 0, w, h);
-    if (sp) {
-      let peak = -Infinity;
-      for (const d of sp.db) peak = Math.max(peak, d);
+    let peak = -Infinity;
+    if (sp) for (const d of sp.db) peak = Math.max(peak, d);
+    if (sp && peak < SILENT_DB) { g.fillStyle = "#8fb3ff"; g.fillText(`${sp.signal} is silent (Restart strikes again)`, 6, 12); }
+    else if (sp) {
       g.strokeStyle = "#8fb3ff"; g.beginPath(); g.moveTo(0, h);
       for (let k = 1; k < sp.db.length; k++) {
         const f = k * sp.binHz;

@@ -20,6 +20,7 @@ export class Tools {
     $("#cut").onclick = () => this._cells("cut");
     $("#join").onclick = () => this._join(this.selection[0], this.selection[1]);
     $("#clear-selection").onclick = () => this.select([]);
+    $("#look").addEventListener("change", (e) => this.ctx.view.look(e.target.value));
     $("#edit-apply").onclick = () => this._edit();
     for (const id of EDITS) $(id).addEventListener("input", (e) => { e.target.dataset.touched = "1"; });
     const pan = $("#mic-pan");
