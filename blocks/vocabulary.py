@@ -208,7 +208,8 @@ def _snake(name):
     return re.sub(r"(?<=[a-z0-9])([A-Z])", r"_\1", name).lower()
 
 
-def _arguments(fn):
+def arguments(fn):
+    """The argument names of a block function, in order: what the graph layer binds by name."""
     return tuple(inspect.signature(fn).parameters)
 
 
@@ -274,6 +275,11 @@ class Block:
     states = ()      # State declarations, in order
     buffers = ()     # Buffer declarations, in order
     externals = ()   # External declarations, in order
+    # The names of derive's values that are the kernel's structure: compiled in as literals (a
+    # flag, a choice), so numba folds their branches and changing one compiles another kernel.
+    # Every other value derive returns is data: a number is read from an array (editing it
+    # re-uses the compiled kernel), a tuple is an array argument.
+    structure = ()
     derive = None
     output = None
     update = None
@@ -334,7 +340,7 @@ class Block:
     @classmethod
     def feedthrough(cls):
         """Public input names that `output` (or a per-sample `derive`) reads in the same sample."""
-        args = set(_arguments(cls.output)) if cls.output else set()
+        args = set(arguments(cls.output)) if cls.output else set()
         names = {i.name for i in cls.inputs if i.attr in args}
         names |= {n for n, p in cls.params.items() if p.live and n in args}
         return names | {n for n in cls.derive_reads if cls.params[n].live}
@@ -409,7 +415,7 @@ def _check_definition(cls):
     cls.derive_reads = frozenset()
     coefs = ()
     if cls.derive is not None:
-        if _arguments(cls.derive) != ("p", "fs"):
+        if arguments(cls.derive) != ("p", "fs"):
             fail("derive must take exactly (p, fs)")
         reads = _attributes_read(cls.derive, "p")
         unknown = (reads or set()) - set(cls.params)
@@ -423,9 +429,12 @@ def _check_definition(cls):
         bad = [c for c in coefs if not isinstance(c, str) or not c.isidentifier()]
         if bad:
             fail(f"derive must return a dict with identifier keys, got {bad}")
+        _check_structure(cls, fail)
         clash = set(coefs) & (set(internal) | set(RESERVED))
         if clash:
             fail(f"coefficient(s) {sorted(clash)} clash with other names")
+    if cls.derive is None and cls.structure:
+        fail("declares structure but no derive()")
     scalars = ({d.attr for d in cls.inputs + cls.states + cls.externals} | set(RESERVED)
                | {n for n, p in cls.params.items() if p.kind in ("number", "integer", "boolean")})
     for fname, expected, what in (("output", len(cls.outputs), "output"), ("update", len(cls.states), "state")):
@@ -440,10 +449,32 @@ def _check_definition(cls):
         fn = getattr(cls, fname)
         if fn is None:
             continue
-        for a in _arguments(fn):
+        for a in arguments(fn):
             allowed = known - out_attrs if fname == "output" else known
             if a not in allowed:
                 fail(f"{fname}() argument {a!r} is not a port, parameter, state, buffer or coefficient")
+
+
+def _is_number(v):
+    return isinstance(v, (bool, int, float, np.bool_, np.integer, np.floating))
+
+
+def _check_structure(cls, fail):
+    """`structure` names values derive returns; every other value is data: a number or a
+    sequence of numbers (a str or None can only be structure)."""
+    if isinstance(cls.structure, str) or not all(isinstance(n, str) for n in cls.structure):
+        fail("structure must be a tuple of the names of derive's values")
+    cls.structure = frozenset(cls.structure)
+    derived = cls.derive(cls.param_tuple()(**cls.default_params()), 44100.0)
+    unknown = cls.structure - set(derived)
+    if unknown:
+        fail(f"structure names {sorted(unknown)}, which derive does not return")
+    for k, v in derived.items():
+        if k in cls.structure:
+            continue
+        if not (_is_number(v) or (isinstance(v, (list, tuple, np.ndarray)) and all(_is_number(x) for x in v))):
+            fail(f"derive's value {k!r} ({type(v).__name__}) is not a number or a list of numbers: "
+                 "data must be; name it in `structure` if it is a flag or a choice")
 
 
 _SCALAR = (ast.Constant, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare)
@@ -487,7 +518,7 @@ def _unassigned(fn, scalars):
     if tree is None:
         return set()
     stored = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, (ast.Store, ast.Del))}
-    return set(scalars) & set(_arguments(fn)) - stored
+    return set(scalars) & set(arguments(fn)) - stored
 
 
 def _return_count_problem(fn, expected, what, scalars=()):

@@ -1,22 +1,21 @@
 """Probes: `BLOCK.PORT` (an output, an input, a live parameter or a state) or `NAME[i, j].PORT`
 (a point of a fused group: for a lattice, a cell's position, velocity, or force — the sum of the
 forces wired into it), resolved to the IR node the kernel records."""
-from .ir import Sum
-
+from .errors import PlanError, name_list, suggest
+from .ir import Total
+from .model import Endpoint
 
 
 def resolve_probe(prog, probe):
     """The IR node probe `probe` records; PlanError naming the probe if it names nothing."""
-    from .patch import Endpoint, _names, _suggest
-    from .program import PlanError
     end = Endpoint.parse(probe)
     if end is None:
         raise PlanError(f"probe {probe!r}: {Endpoint.problem(probe)}")
     bp = prog.by_name.get(end.block)
     if bp is None:
         names = list(prog.by_name)
-        raise PlanError(f"probe {probe!r}: no block named {end.block!r}{_suggest(end.block, names)}; "
-                        f"its blocks: {_names(names)}")
+        raise PlanError(f"probe {probe!r}: no block named {end.block!r}{suggest(end.block, names)}; "
+                        f"its blocks: {name_list(names)}")
     gs = prog.group_of.get(end.block)
     if gs is not None and (end.index is not None or end.port in gs.family.point_ports):
         return _point(prog, gs, bp, end, probe)
@@ -26,7 +25,6 @@ def resolve_probe(prog, probe):
 
 
 def _point(prog, gs, bp, end, probe):
-    from .program import PlanError
     ports = gs.family.point_ports
     message = None
     if end.index is not None or gs.point(end) is None:
@@ -42,18 +40,16 @@ def _point(prog, gs, bp, end, probe):
         raise PlanError(f"probe {probe!r}: {message}")
     if ports[end.port] == "input" and bp.inst.output(end.port) is None:
         return gs.driven(end)
-    return Sum((gs.element(end),))
+    return Total((gs.element(end),))
 
 
 def _port(prog, bp, end, probe):
-    from .patch import Endpoint, _suggest
-    from .program import PlanError
     block, port = end.block, end.port
     if bp.inst.output(port) is not None:
-        return Sum((prog.source(Endpoint(block, None, port)),))
+        return Total((prog.source(Endpoint(block, None, port)),))
     for p in bp.inst.inputs:
         if p.name == port:
-            return Sum(bp.inputs.get(port, ()))
+            return Total(bp.inputs.get(port, ()))
     if port in bp.cls.params and bp.cls.params[port].live:
         return prog.param_binding(bp, port)
     for i, s in enumerate(bp.cls.states):
@@ -62,4 +58,4 @@ def _port(prog, bp, end, probe):
     names = ([p.name for p in bp.inst.outputs + bp.inst.inputs] + [n for n, p in bp.cls.params.items() if p.live]
              + [s.attr for s in bp.cls.states])
     raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
-                    f"{port!r}{_suggest(port, names)}; it has: {', '.join(dict.fromkeys(names)) or 'none'}")
+                    f"{port!r}{suggest(port, names)}; it has: {', '.join(dict.fromkeys(names)) or 'none'}")

@@ -2,12 +2,13 @@
 driver kinds), each violation told as FILE:LINE naming the block, parameter or key."""
 import jsonschema
 
-from .errors import _suggest
+from .errors import suggest
+from .model import connection_problem
 from .schema import patch_schema
 from .source import LDict, line_of
 
 
-def _check_schema(doc, registry, problems):
+def check_schema(doc, registry, problems):
     blocks = doc.get("blocks")
     skip_blocks = set()
     if isinstance(blocks, LDict):
@@ -23,7 +24,7 @@ def _check_schema(doc, registry, problems):
                 skip_blocks.add(name)
             elif kind not in registry.types:
                 problems.add(spec.lines.get("type", line),
-                             f"block {name!r}: unknown type {kind!r}{_suggest(str(kind), registry.types)}")
+                             f"block {name!r}: unknown type {kind!r}{suggest(str(kind), registry.types)}")
                 skip_blocks.add(name)
             else:
                 cls = registry.types[kind]
@@ -32,7 +33,7 @@ def _check_schema(doc, registry, problems):
                         public = [n for n, p in cls.params.items() if not p.internal]
                         problems.add(spec.lines[key],
                                      f"block {name!r} ({kind}): unknown parameter {key!r}"
-                                     f"{_suggest(key, public)}")
+                                     f"{suggest(key, public)}")
     validator = jsonschema.Draft202012Validator(patch_schema(registry))
     for err in validator.iter_errors(doc):
         if problems.full:
@@ -46,10 +47,11 @@ def _check_schema(doc, registry, problems):
             continue
         if len(path) == 3 and path[0] == "devices" and path[2] == "driver":
             continue  # an unknown driver, reported by _check_drivers with a suggestion
-        problems.add(line_of(doc, path), _describe(err, path, doc, registry))
+        problems.add(line_of(doc, path), describe(err, path, doc, registry))
 
 
-def _describe(err, path, doc, registry):
+def describe(err, path, doc, registry):
+    """A JSON Schema error of the document at `path`, told naming the block, parameter or key."""
     what, unit = "patch", ""
     if path and path[0] == "blocks" and len(path) >= 2:
         spec = doc["blocks"].get(path[1])
@@ -78,7 +80,7 @@ def _describe(err, path, doc, registry):
         "const": lambda: f"{v!r} must be {s!r}",
         "minItems": lambda: f"needs at least {s} item(s), has {len(v)}",
         "maxItems": lambda: f"takes at most {s} item(s), has {len(v)}",
-        "pattern": lambda: (_connection_problem_(v) if path and path[0] == "connect"
+        "pattern": lambda: (connection_problem(v) if path and path[0] == "connect"
                             else f"{v!r} is not a valid name"),
         "required": lambda: f"missing {', '.join(repr(r) for r in s if r not in v)}",
         "additionalProperties": lambda: f"unknown key(s) {', '.join(repr(k) for k in v if k not in err.schema.get('properties', {}))}",
@@ -90,7 +92,3 @@ def _describe(err, path, doc, registry):
         return text
     return f"{what}: {text}"
 
-
-def _connection_problem_(text):
-    from .patch import _connection_problem
-    return _connection_problem(text)
