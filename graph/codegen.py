@@ -157,3 +157,12 @@ def _emit_block_imports(e, prog, called):
             e(f"{tname}_{w} = jit({alias}.{w})")
             fns.append(getattr(cls, w))
     return fns
+
+
+def module_names(plans, built):
+    """The names the kernel module defines: each block type's functions, each group's step."""
+    names = {g.step()[0].__name__ for g in built}
+    for bp in plans:
+        t = bp.cls.type_name
+        names |= {f"{t}_type", f"{t}_type_module", f"{t}_derive", f"{t}_output", f"{t}_update"}
+    return names

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..blocks.vocabulary import arguments
 from .blockplan import BlockPlan, freeze
+from .codegen import module_names
 from .errors import PlanError
 from .family import GroupStep, groups
 from .guard import Guard
@@ -37,7 +38,7 @@ class Program:
             self._bind_device(bp)
         built = [(family, family.build(members, self.fs, editable)) for family, members in groups(patch.blocks)]
         built = [(family, g) for family, g in built if g is not None]
-        self.names = Names(_module_names(self.plans, [g for _, g in built]))
+        self.names = Names(module_names(self.plans, [g for _, g in built]))
         for bp in self.plans:
             bp.ident = self.names.prefix(bp.index, bp.name)
         self.numbers, self.number_nodes, self._numbered = [], [], {}
@@ -390,12 +391,3 @@ class Program:
         if bp is None:
             raise PlanError(f"no block named {block!r}")
         return bp
-
-
-def _module_names(plans, built):
-    """The names the kernel module defines: each block type's functions, each group's step."""
-    names = {g.step()[0].__name__ for g in built}
-    for bp in plans:
-        t = bp.cls.type_name
-        names |= {f"{t}_type", f"{t}_type_module", f"{t}_derive", f"{t}_output", f"{t}_update"}
-    return names
