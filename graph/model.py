@@ -8,7 +8,7 @@ import re
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from .schema import INDEX
+from .patterns import INDEX
 
 _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 _ENDPOINT = re.compile(rf"\s*({_NAME})(?:\[([^\]]*)\])?\.({_NAME})\s*")

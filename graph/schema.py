@@ -1,12 +1,6 @@
 """The JSON Schema of a patch, assembled from every registered block type's declarations."""
-
-# Patterns are ECMA-262 (for editors) and read by Python's re.search, whose `$` also matches
-# before a final newline: `(?![\s\S])` anchors at the very end in both, so a name is matched whole.
-END = r"(?![\s\S])"
-IDENT = rf"^[A-Za-z_][A-Za-z0-9_]*{END}"
-INDEX = r"\[ *-?[0-9]{1,18} *(, *-?[0-9]{1,18} *)*\]"
-ENDPOINT = rf"[A-Za-z_][A-Za-z0-9_]*({INDEX})?\.[A-Za-z_][A-Za-z0-9_]*"
-CONNECTION = rf"^\s*{ENDPOINT}\s*->\s*{ENDPOINT}\s*{END}"
+from .patterns import CONNECTION, END, ENDPOINT, IDENT, INDEX  # noqa: F401  (the patterns the schema uses)
+from .voices import voices_schema
 
 
 def device_schema(drivers):
@@ -42,30 +36,6 @@ def _sections(drivers):
     for kind in drivers.values():
         out.update(getattr(kind, "sections", dict)())
     return out
-
-
-SECTION = "voices"
-DEFAULT_PREFIX = "v"     # v1_NAME, v2_NAME, … (a name prefix, not the port named v)
-MAX_VOICES = 128
-
-
-def voices_schema(block=None):
-    """The section's JSON Schema; `block` (a block's schema) checks the template's blocks and
-    the connections' syntax too (the published schema); without it, only the section's shape
-    (the loader's first look: the copies are checked as blocks and connections of the patch)."""
-    connection = {"type": "string", "pattern": CONNECTION} if block is not None else {"type": "string"}
-    return {
-        "type": "object", "required": ["count", "blocks"], "additionalProperties": False,
-        "description": "a polyphonic voice: these blocks and connections copied `count` times",
-        "properties": {
-            "count": {"type": "integer", "minimum": 1, "maximum": MAX_VOICES, "description": "how many voices"},
-            "prefix": {"type": "string", "pattern": IDENT, "default": DEFAULT_PREFIX,
-                       "description": "the copies are named PREFIX1_NAME … PREFIXcount_NAME"},
-            "blocks": {"type": "object", "minProperties": 1, "propertyNames": {"pattern": IDENT},
-                       "additionalProperties": block if block is not None else {"type": "object"}},
-            "connect": {"type": "array", "items": connection},
-        },
-    }
 
 
 def patch_schema(registry):

@@ -25,10 +25,34 @@ import re
 
 import jsonschema
 
+from .explain import describe
 from .model import Endpoint
-from .schema import DEFAULT_PREFIX, MAX_VOICES, SECTION, voices_schema
+from .patterns import CONNECTION, IDENT
 from .source import LDict, LList, line_of
-from .validate import describe
+
+SECTION = "voices"
+DEFAULT_PREFIX = "v"     # v1_NAME, v2_NAME, … (a name prefix, not the port named v)
+MAX_VOICES = 128
+
+
+def voices_schema(block=None):
+    """The section's JSON Schema; `block` (a block's schema) checks the template's blocks and
+    the connections' syntax too (the published schema); without it, only the section's shape
+    (the loader's first look: the copies are checked as blocks and connections of the patch)."""
+    connection = {"type": "string", "pattern": CONNECTION} if block is not None else {"type": "string"}
+    return {
+        "type": "object", "required": ["count", "blocks"], "additionalProperties": False,
+        "description": "a polyphonic voice: these blocks and connections copied `count` times",
+        "properties": {
+            "count": {"type": "integer", "minimum": 1, "maximum": MAX_VOICES, "description": "how many voices"},
+            "prefix": {"type": "string", "pattern": IDENT, "default": DEFAULT_PREFIX,
+                       "description": "the copies are named PREFIX1_NAME … PREFIXcount_NAME"},
+            "blocks": {"type": "object", "minProperties": 1, "propertyNames": {"pattern": IDENT},
+                       "additionalProperties": block if block is not None else {"type": "object"}},
+            "connect": {"type": "array", "items": connection},
+        },
+    }
+
 
 # blocks and connections the copies may add, checked before copying: a small file must not
 # become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
