@@ -1,7 +1,46 @@
-"""A JSON Schema error of a patch document told as a sentence naming the block, its parameter (with
-its unit) or the key at fault: what the loader reports at the error's line (graph/validate.py,
-graph/voices.py)."""
+"""A patch document's JSON Schema errors, found (`whole_errors`, which also makes the floats the
+schema takes as integers ints) and told as sentences naming the block, its parameter (with its
+unit) or the key at fault (`describe`): what the loader reports at each error's line
+(graph/validate.py, graph/voices.py)."""
+import jsonschema
+from jsonschema import validators
+
+from ..blocks.numbers import is_whole
 from .model import connection_problem
+
+_TYPE = jsonschema.Draft202012Validator.VALIDATORS["type"]
+
+
+def whole_errors(schema, doc):
+    """The errors of `doc` against `schema` (JSON Schema 2020-12), as they are found. Every float the schema
+    accepts as an integer (2.0: JSON Schema counts it as one) becomes an int in `doc`, in place,
+    so an index, a count or a length reaches the blocks as the integer it means; a float with a
+    fraction stays an error of the schema ("2.5 is not an integer", at its line). Floats are made
+ints when the generator ends or is closed (a caller stopping early closes it: `closing`)."""
+    accepted = set()
+
+    def type_(validator, types, instance, schema):
+        errors = list(_TYPE(validator, types, instance, schema))
+        named = [types] if isinstance(types, str) else list(types)
+        if not errors and isinstance(instance, float) and "integer" in named and "number" not in named:
+            accepted.add(id(instance))       # the document holds it, so the id stays its own
+        return errors
+
+    try:
+        yield from validators.extend(jsonschema.Draft202012Validator, {"type": type_})(schema).iter_errors(doc)
+    finally:
+        if accepted:
+            _make_whole(doc, accepted)
+
+
+def _make_whole(node, accepted):
+    """Replace, in the lists and mappings of `node`, each float whose id is in `accepted` by its int."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, value in list(items):
+        if isinstance(value, float) and id(value) in accepted and is_whole(value):
+            node[key] = int(value)
+        elif isinstance(value, (dict, list)):
+            _make_whole(value, accepted)
 
 
 def describe(err, path, doc, registry):

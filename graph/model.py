@@ -8,6 +8,7 @@ import re
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ..blocks.numbers import whole_number
 from .patterns import INDEX
 
 _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
@@ -32,7 +33,7 @@ class Endpoint:
         m = _ENDPOINT.fullmatch(text)
         if not m or (m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]")):
             return None
-        index = None if m.group(2) is None else tuple(int(v) for v in m.group(2).split(","))
+        index = None if m.group(2) is None else tuple(whole_number(v) for v in m.group(2).split(","))
         return cls(m.group(1), index, m.group(3))
 
     @staticmethod

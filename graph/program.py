@@ -103,7 +103,7 @@ class Program:
                 # names it); set_param refuses to change it
                 continue
             if isinstance(v, tuple):   # an array coefficient: rewritten in place
-                bp.coef_arrays[k] = self._array(v, bp.ident, k)
+                bp.coef_arrays[k] = self.array(v, bp.ident, k)
             else:
                 bp.coef_slots[k] = len(self.numbers)
                 bp.coef_nodes[k] = Coef(len(self.numbers), Coef.kind_of(v), self._local("coef", bp, k))
@@ -229,8 +229,6 @@ class Program:
         self.array_nodes.append(node)
         return node
 
-    _array = array
-
     def number(self, value, kind, prefix, attr):
         """A number the kernel reads as data (coef[slot], loaded into the local `prefix_attr`
         before the sample loop), so that changing it re-uses the compiled kernel."""
@@ -250,7 +248,7 @@ class Program:
         numbers and tables are data (a coef slot, an array), so editing them re-uses the kernel."""
         value = freeze(value)
         if isinstance(value, tuple):
-            return self._array(value, bp.ident, attr)
+            return self.array(value, bp.ident, attr)
         if isinstance(value, (bool, str)) or value is None:
             return Literal(value, f"{note(bp.name)}: {attr}")
         return self.number(value, Coef.kind_of(value), bp.ident, attr)
@@ -317,16 +315,18 @@ class Program:
     def edit_cell(self, block, index, action, apply=True):
         """Lock, unlock or cut `block[index]` between kernel calls (needs `editable=True`);
         `apply=False` only checks (PlanError if refused)."""
-        gs = self.group_of.get(block)
+        index = tuple(index) if index is not None else None
+        return self._ask(block, lambda group: group.edit(block, index, action, apply))
+
+    def _ask(self, block, question):
+        """`question(group)` of the fused group of `block`; PlanError if it has none or refuses."""
+        gs = self.group_of.get(self._plan(block).name)
         if gs is None:
             raise PlanError(f"{block!r} is not a lattice or cell block")
         try:
-            return gs.group.edit(block, tuple(index) if index is not None else None, action, apply)
+            return question(gs.group)
         except ValueError as exc:
             raise PlanError(str(exc)) from None
-
-    def check_edit(self, block, index, action):
-        self.edit_cell(block, index, action, apply=False)
 
     def check_set(self, block, name, value):
         """PlanError if set_param(block, name, value) would be refused (nothing changes)."""
@@ -380,6 +380,10 @@ class Program:
         if gs is not None:
             views += gs.group.views(block)
         return tuple(views)
+
+    def points(self, block):
+        """The Points (blocks/family.py) of a lattice or cell block: numpy views of its cells."""
+        return self._ask(block, lambda group: group.points(block))
 
     def block_values(self, block):
         """The parameter values `block` plays with now: the patch's, with the changes set_param

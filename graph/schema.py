@@ -1,5 +1,5 @@
 """The JSON Schema of a patch, assembled from every registered block type's declarations."""
-from .patterns import CONNECTION, END, ENDPOINT, IDENT, INDEX  # noqa: F401  (the patterns the schema uses)
+from .patterns import CONNECTION, END, ENDPOINT, IDENT, INDEX, WHOLE  # noqa: F401  (the patterns the schema uses)
 from .voices import voices_schema
 
 

@@ -1,9 +1,9 @@
 """The patch document against its JSON Schema (assembled from the block declarations and the
 driver kinds), each violation told as FILE:LINE naming the block, parameter or key."""
-import jsonschema
+from contextlib import closing
 
 from .errors import suggest
-from .explain import describe
+from .explain import describe, whole_errors
 from .schema import patch_schema
 from .source import LDict, line_of
 
@@ -34,8 +34,12 @@ def check_schema(doc, registry, problems):
                         problems.add(spec.lines[key],
                                      f"block {name!r} ({kind}): unknown parameter {key!r}"
                                      f"{suggest(key, public)}")
-    validator = jsonschema.Draft202012Validator(patch_schema(registry))
-    for err in validator.iter_errors(doc):
+    with closing(whole_errors(patch_schema(registry), doc)) as errors:
+        _report_schema(errors, doc, registry, skip_blocks, problems)
+
+
+def _report_schema(errors, doc, registry, skip_blocks, problems):
+    for err in errors:
         if problems.full:
             return
         path = list(err.absolute_path)

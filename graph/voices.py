@@ -23,9 +23,7 @@ later in a copy are reported once, at the template's line, under the template's 
 """
 import re
 
-import jsonschema
-
-from .explain import describe
+from .explain import describe, whole_errors
 from .model import Endpoint
 from .patterns import CONNECTION, IDENT
 from .source import LDict, LList, line_of
@@ -95,7 +93,7 @@ def _read(doc, registry, problems):
     """(count, prefix, template blocks, template connections) of a well-formed section, else
     None with its problems reported."""
     section = doc[SECTION]
-    errors = list(jsonschema.Draft202012Validator(voices_schema()).iter_errors(section))
+    errors = list(whole_errors(voices_schema(), section))
     for err in errors:
         path = [SECTION] + list(err.absolute_path)
         problems.add(line_of(doc, path), describe(err, path, doc, registry))
