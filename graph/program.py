@@ -8,7 +8,7 @@ state slot, a cell's position, a device column, ...), which says its meaning for
 
 import numpy as np
 
-from ..blocks.vocabulary import _arguments
+from ..blocks.definition import arguments as _arguments
 from .family import GroupStep, groups
 from .ir import (ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Literal, Live, Names, Output,
                  StateSlot, Sum)
