@@ -76,11 +76,24 @@ def _attributes_read(fn, argname):
 
 
 def check_definition(cls):
+    """Raise BlockDefinitionError, naming the block type, at the first thing wrong with `cls`;
+    set `cls.derive_reads` (the parameters `derive` reads)."""
     where = f"block type {cls.__name__} ({cls.type_name!r})"
 
     def fail(msg):
         raise BlockDefinitionError(f"{where}: {msg}")
 
+    internal = _check_names(cls, fail)
+    _check_params(cls, fail)
+    _check_functions(cls, fail)
+    # derive: called once with the defaults here, so a broken derive fails at import time
+    coefs = _check_derive(cls, fail, internal)
+    _check_returns(cls, fail)
+    _check_arguments(cls, fail, set(internal) | set(coefs) | set(RESERVED))
+
+
+def _check_names(cls, fail):
+    """The type name, the public names and the reserved ones; the block's internal names."""
     if not re.fullmatch(r"[a-z][a-z0-9_]*", cls.type_name):
         fail("type name must be snake_case")
     public = [d.name for d in cls.inputs + cls.outputs] + list(cls.params)
@@ -95,6 +108,11 @@ def check_definition(cls):
     clash = set(internal) & set(RESERVED)
     if clash:
         fail(f"{sorted(clash)} are reserved argument names")
+    return internal
+
+
+def _check_params(cls, fail):
+    """Each parameter's default against its choices and range; only numbers are live."""
     for n, p in cls.params.items():
         if p.kind == "string" and p.choices and p.default not in p.choices:
             fail(f"parameter {n!r}: default {p.default!r} is not one of {p.choices}")
@@ -106,6 +124,10 @@ def check_definition(cls):
                 if ((p.minimum is not None and v < p.minimum) or (p.maximum is not None and v > p.maximum)
                         or (p.above is not None and v <= p.above) or (p.below is not None and v >= p.below)):
                     fail(f"parameter {n!r}: default {p.default!r} is outside its range")
+
+
+def _check_functions(cls, fail):
+    """The three functions are static, and present where outputs or states need them."""
     for fname in ("derive", "output", "update"):
         fn = cls.__dict__.get(fname)
         if fn is not None and not isinstance(fn, staticmethod):
@@ -116,7 +138,11 @@ def check_definition(cls):
         fail("defines output() but declares no Out port")
     if cls.states and cls.update is None:
         fail("declares states but no update() to advance them")
-    # derive: called once with the defaults here, so a broken derive fails at import time
+
+
+def _check_derive(cls, fail, internal):
+    """derive's arguments, the parameters it reads, and its coefficients' names (it is called
+    with the defaults); sets cls.derive_reads. The coefficient names."""
     cls.derive_reads = frozenset()
     coefs = ()
     if cls.derive is not None:
@@ -137,6 +163,11 @@ def check_definition(cls):
         clash = set(coefs) & (set(internal) | set(RESERVED))
         if clash:
             fail(f"coefficient(s) {sorted(clash)} clash with other names")
+    return coefs
+
+
+def _check_returns(cls, fail):
+    """output returns one value per output, update one per state (where the source shows it)."""
     scalars = ({d.attr for d in cls.inputs + cls.states + cls.externals} | set(RESERVED)
                | {n for n, p in cls.params.items() if p.kind in ("number", "integer", "boolean")})
     for fname, expected, what in (("output", len(cls.outputs), "output"), ("update", len(cls.states), "state")):
@@ -145,7 +176,10 @@ def check_definition(cls):
                                         scalars)
         if problem:
             fail(f"{fname}() {problem}")
-    known = set(internal) | set(coefs) | set(RESERVED)
+
+
+def _check_arguments(cls, fail, known):
+    """Every argument of output and update binds to something (output never to an output)."""
     out_attrs = {o.attr for o in cls.outputs}
     for fname in ("output", "update"):
         fn = getattr(cls, fname)
