@@ -132,7 +132,7 @@ def _check_functions(cls, fail):
         fn = cls.__dict__.get(fname)
         if fn is not None and not isinstance(fn, staticmethod):
             fail(f"{fname} must be a @staticmethod")
-    if cls.outputs and cls.output is None and getattr(cls, "family", None) is None:
+    if cls.outputs and cls.output is None and cls.family is None:
         fail("declares outputs but no output()")
     if cls.output is not None and not cls.outputs:
         fail("defines output() but declares no Out port")

@@ -212,6 +212,7 @@ class Block:
     derive = None
     output = None
     update = None
+    family = None    # the fused family (blocks/family.py) whose groups the block joins, or None
 
     def __init_subclass__(cls, name=None, abstract=False, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -78,6 +78,7 @@ class Instance:
         self.name, self.cls, self.values, self.line, self.lines, self.index = (
             name, cls, values, line, lines, index)
         self.inputs, self.outputs = cls.ports(values)
+        self.built = {}     # what its family built at load for the group it leads (blocks/family.py)
 
     @property
     def params(self):
