@@ -30,9 +30,9 @@ class MassSpring(Family):
         before = len(problems.problems)
         if not check_members(members, problems):
             return
-        check_springs(members, blocks, problems, declared)
+        resolved = check_springs(members, blocks, problems, declared)   # not when a link names a block in error
         check_cells(members, problems)      # before anything sized by the cells is built
-        if len(problems.problems) == before:
+        if resolved and len(problems.problems) == before:
             check_stability(members, rate, problems)
 
     @classmethod

@@ -30,10 +30,11 @@ An extra point has no inverse mass in the network: the links move it not (a hamm
 import re
 
 from ..family import touching
+from ..numbers import whole_number
 
 GROUND = "ground"
 CELL_PORTS = {"force": "input", "position": "output", "velocity": "output"}
-_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
+_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,.]*)\])?\s*")
 
 
 class Link:
@@ -117,7 +118,7 @@ def parse_ref(text):
     if m.group(2) is None:
         return m.group(1), None
     try:
-        return m.group(1), tuple(int(v) for v in m.group(2).split(","))
+        return m.group(1), tuple(whole_number(v) for v in m.group(2).split(","))   # s[2.0] is s[2]
     except ValueError:
         return None
 
