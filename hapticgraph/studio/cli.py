@@ -13,6 +13,9 @@ from .server import build_app, new_token
 from .session import StudioSession
 
 
+SWITCH = 0.0002     # seconds a thread keeps the GIL while another waits: the sound thread waits less
+
+
 def _check(args):
     if not 0 <= args.port <= 65535:
         raise UsageError(f"--port {args.port}: expected 0 (any free port) to 65535")
@@ -85,9 +88,9 @@ def cmd_studio(args):
     print(f"hapticgraph studio: {url}", flush=True)
     print(f"hapticgraph: studio of {patch.name!r} ({args.audio} audio); Ctrl-C stops it", file=sys.stderr)
     import uvicorn
-    server = uvicorn.Server(uvicorn.Config(build_app(studio, token, args.host), log_level="warning",
-                                           lifespan="off", timeout_graceful_shutdown=2))
-    studio.start()
+    server = uvicorn.Server(uvicorn.Config(build_app(studio, token, args.host, start=True), log_level="warning",
+                                           lifespan="on", timeout_graceful_shutdown=2))
+    sys.setswitchinterval(SWITCH)
     if not args.no_browser:
         threading.Timer(0.3, webbrowser.open, (url,)).start()
     # uvicorn stops gracefully on SIGINT/SIGTERM, then raises the signal again under the handler

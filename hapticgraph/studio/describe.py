@@ -3,7 +3,7 @@ excitations, microphones, the wiring graph and every numeric parameter's declara
 `hello` / `describe` object of docs/studio.md)."""
 import math
 
-from ..blocks.network import STABILITY_BOUND
+from ..blocks.massspring.checks import STABILITY_BOUND
 from . import yamltext as yt
 from .edits import cell_text, plain
 

@@ -4,6 +4,7 @@ Every HTTP request needs the token (`?token=T`, or the cookie the page's own res
 the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio's own.
 """
 import asyncio
+import contextlib
 import json
 import math
 import os
@@ -23,6 +24,8 @@ STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "static")
 COOKIE = "hapticgraph_studio_token"
 LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
 STATUS_EVERY = 1.0
+STREAM_POLL = 0.01         # seconds between looks for audio and probe frames while some flow
+IDLE_POLL = 0.1            # ... while none do (each look takes the GIL from the sound thread)
 
 
 def new_token():
@@ -87,8 +90,10 @@ class Guard:
         await self.app(scope, receive, send)
 
 
-def build_app(studio, token, host="127.0.0.1"):
-    """The ASGI app serving `studio` (a StudioSession) behind the token."""
+def build_app(studio, token, host="127.0.0.1", start=False):
+    """The ASGI app serving `studio` (a StudioSession) behind the token; `start`: the app's
+    lifespan starts the sound once the server is up (its imports and set-up then no longer
+    compete with the first blocks for the interpreter)."""
     async def page(request):
         index = os.path.join(STATIC, "index.html")
         if not os.path.isfile(index):
@@ -107,7 +112,13 @@ def build_app(studio, token, host="127.0.0.1"):
     files = (Mount("/static", app=StaticFiles(directory=STATIC), name="static") if os.path.isdir(STATIC)
              else Route("/static/{path:path}", missing))
     routes = [Route("/", page), WebSocketRoute("/ws", socket), files]
-    return Guard(Starlette(routes=routes), token, host)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app):
+        if start:
+            studio.start()
+        yield
+    return Guard(Starlette(routes=routes, lifespan=lifespan), token, host)
 
 
 def _finite(obj):
@@ -199,9 +210,10 @@ class Connection:
                     await self.send_bytes(data)
 
     async def _streams(self):
+        """Audio and probe frames, in order; the poll slows down while there are none."""
         tap, seq = self.studio.tap, 0
         while True:
-            await asyncio.sleep(0.01)
+            await asyncio.sleep(STREAM_POLL if tap.streaming() else IDLE_POLL)
             for seq, data in tap.since(seq):
                 await self.send_bytes(data)
 

@@ -141,6 +141,10 @@ class Tap:
             while len(self.queue) > self.limit:
                 self.queue.popleft()
 
+    def streaming(self):
+        """True while audio or probe frames are being made."""
+        return bool(self.audio or self.probes)
+
     def since(self, seq):
         """[(seq, bytes)] of the queued audio and probe frames newer than `seq`."""
         with self.lock:

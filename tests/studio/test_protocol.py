@@ -318,3 +318,38 @@ def test_save_as_writes_a_new_patch_beside_the_old_one(page, tmp_path):
     assert result["path"].endswith("edited.yaml") and (tmp_path / "edited.yaml").read_text().count("gain: 1.5") == 1
     assert "gain: 2.0" in (tmp_path / "cymatic_sheet.yaml").read_text().split("mic1:")[1].splitlines()[0]
     assert page.ok("state")["path"].endswith("edited.yaml")
+
+
+def _event(page, kind):
+    for _ in range(MAX_MESSAGES):
+        for e in page.events:
+            if e["type"] == kind:
+                return e
+        page.receive()
+    raise AssertionError(f"no {kind} event")
+
+
+def test_a_safety_stop_is_reported_and_the_next_edit_plays_again(page, studio):
+    page.ok("set", block="mic1", param="gain", value=1e9)        # the audio runs away
+    problem = _event(page, "problem")
+    assert re.match(r"runaway: out\.(left|right) reached .* over the limit 1000", problem["message"]), problem
+    assert page.ok("state")["problem"] == problem["message"]
+    stopped = page.ok("state")["t"]
+    page.ok("set", block="mic1", param="gain", value=2.0)        # swapped in: the sound goes on
+    assert page.ok("state")["problem"] is None
+    page.frames.clear()
+    frames = [cell_frame(f) for f in page.wait_frames(1, 10)]
+    assert frames[-1][3] > stopped * 44100
+
+
+def test_restart_starts_from_rest_and_text_replaces_the_patch(page):
+    page.wait_frames(1, 20)
+    before = page.ok("state")["t"]
+    page.ok("restart")
+    assert page.ok("state")["t"] < before
+    text = page.ok("state")["text"]
+    page.ok("text", text=text.replace("pan: 0.5}", "pan: 0.75}"))
+    assert [m["pan"] for m in page.ok("describe")["microphones"]] == [-0.5, 0.75]
+    reply = page.send("text", text=text.replace("type: pluck", "type: plukc"))
+    assert not reply["ok"] and "plukc" in reply["error"] and re.match(r".*cymatic_sheet\.yaml:\d+: ", reply["error"])
+    assert "pan: 0.75}" in page.ok("state")["text"]

@@ -68,6 +68,14 @@ def replies(ws, ident, limit=5000):
     raise AssertionError(f"no reply to {ident}")
 
 
+def event(ws, kind, limit=5000):
+    for _ in range(limit):
+        msg = ws.recv(timeout=30)
+        if isinstance(msg, str) and json.loads(msg).get("type") == kind:
+            return json.loads(msg)
+    raise AssertionError(f"no {kind} event")
+
+
 def cell_frames(ws, count, limit=5000):
     got = []
     for _ in range(limit):
@@ -142,6 +150,11 @@ def test_the_sound_card_paces_the_studio(sheet, tmp_path):
                 ws.send(json.dumps({"id": 1, "cmd": "place", "block": "mic1", "cell": "sheet[1, 1]"}))
                 assert replies(ws, 1)["ok"]
                 after = cell_frames(ws, 5)
+                ws.send(json.dumps({"id": 2, "cmd": "set", "block": "mic1", "param": "gain", "value": 1e9}))
+                problem = event(ws, "problem")                  # the stream stops, the studio stays
+                ws.send(json.dumps({"id": 3, "cmd": "set", "block": "mic1", "param": "gain", "value": 1.0}))
+                assert replies(ws, 3)["ok"]                       # the stream opens again
+                again = cell_frames(ws, 5)
         finally:
             code = stop(proc)
     finally:
@@ -150,6 +163,7 @@ def test_the_sound_card_paces_the_studio(sheet, tmp_path):
     played = (frames[-1][4] - frames[0][4]) / 44100
     assert 0 < played < 3.0 * wall + 0.5                      # paced by the card, not as fast as possible
     assert after[0][4] > frames[-1][4]                        # the swap kept the clock running
+    assert problem["message"].startswith("runaway: ") and again[-1][4] > again[0][4] > after[-1][4]
 
 
 def test_without_audio_option_the_page_plays_when_there_is_no_sound_card(sheet, tmp_path):
