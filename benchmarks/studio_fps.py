@@ -18,6 +18,7 @@ frame rates are then a floor for a desktop with a graphics card.
 """
 import argparse
 import contextlib
+import math
 import os
 import queue
 import re
@@ -232,7 +233,7 @@ def table(rows, args):
           "| studio, no page | play alone | load average |")
     print("|---|---|---|---|---|---|---|---|")
     for r in rows:
-        cells = eval(r["label"].replace("x", "*"))   # noqa: S307 (our own labels)
+        cells = math.prod(int(n) for n in r["label"].split("x"))
         print(f"| {r['label'].replace('x', ' × ')} | {cells} | {statistics.median(r['drawn']):.1f} ({min(r['drawn']):.1f}) | "
               f"{statistics.median(r['received']):.1f} | {r['xruns']} | {r['server_xruns']} | {r.get('play_xruns', '—')} | "
               f"{r['load_before']:.1f} → {r['load_after']:.1f} |")
