@@ -221,3 +221,25 @@ def test_box_select_lock_cut_undo_and_a_mode_shape(sheet_patch, tmp_path):
         frames_later = driver.execute_script("return window.studio.link.received")
     assert re.search(r"lock: \[\[0, 0\], \[0, 1\],", text) and re.search(r"cut: \[\[0, 0\], \[0, 1\],", text), text
     assert frames_later > frames_after_cut, "the running sound stopped sending cells after the cut"
+
+
+def test_a_microphone_placed_inside_a_block(tmp_path):
+    """Cymatic listens from inside a block: with one layer of patches/cymatic_block.yaml shown, a
+    click on an inner cell moves mic2 there."""
+    from selenium.webdriver.support.ui import Select
+
+    browser_or_skip()
+    patch = tmp_path / "block.yaml"
+    shutil.copyfile(ROOT / "patches" / "cymatic_block.yaml", patch)
+    out = artifacts(tmp_path, "studio_block")
+    with studio(patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        assert driver.execute_script("return window.studio.view.parts[0].kind") == "block"
+        Select(driver.find_element("css selector", "#layer")).select_by_visible_text("blk[2, :, :]")
+        _place_by_click(driver, "mic2", [2, 3, 4])
+        until(lambda: driver.execute_script(
+            "return window.studio.desc.microphones.find(m => m.block === 'mic2').cell") == "blk[2, 3, 4]",
+            60, "mic2 did not move to the inner cell clicked")
+        driver.save_screenshot(str(out / "studio_block_layer.png"))
+        text = send(driver, {"cmd": "state"})["result"]["text"]
+    assert "  - blk[2, 3, 4].velocity -> mic2.in\n" in text

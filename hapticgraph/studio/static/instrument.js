@@ -207,7 +207,7 @@ export class Instrument {
     for (const p of this.parts) {
       if (!p) continue;
       for (let f = 0; f < p.n; f++) {
-        if (p.cut.has(f)) continue;
+        if (!p.seen(f)) continue;
         p.cellWorld(f, v).project(this.camera);
         const sx = r.left + (v.x + 1) / 2 * r.width, sy = r.top + (1 - v.y) / 2 * r.height;
         if (v.z < 1 && sx >= ax && sx <= bx && sy >= ay && sy <= by) out.push({ lattice: p.id, flat: f });
@@ -221,6 +221,12 @@ export class Instrument {
     const r = this.canvas.getBoundingClientRect();
     const v = this.parts[lattice].cellWorld(flat).project(this.camera);
     return { x: r.left + (v.x + 1) / 2 * r.width, y: r.top + (1 - v.y) / 2 * r.height };
+  }
+
+  // one layer of a block (or all: null)
+  setLayer(id, layer) {
+    for (const p of this.parts) if (p) p.setLayer(p.id === id ? layer : null);
+    this.dirty = true;
   }
 
   setSelection(cells) {

@@ -46,13 +46,29 @@ export class Part {
   setCells(locked, cut) {
     this.locked = new Set(locked);
     this.cut = new Set(cut);
-    const visible = [];
-    for (let f = 0; f < this.n; f++) if (!this.cut.has(f)) visible.push(f);
-    this.geometry.setIndex(visible);
-    this.points.geometry = this.geometry;
     this._rebuildSkin();
-    this._overlay("locked", [...this.locked].filter((f) => !this.cut.has(f)), 0x202020, 0.5);
+    this._showCells();
     this.paint();
+  }
+
+  // A block shows one layer (first axis = `layer`) or all (null): the inner cells can then be
+  // seen and clicked, to place a microphone or an excitation inside the block.
+  setLayer(layer) {
+    this.layer = this.kind === "block" ? layer : null;
+    this._showCells();
+  }
+
+  seen(f) {
+    return !this.cut.has(f) && (this.layer == null || Math.floor(f / this.layerSize) === this.layer);
+  }
+
+  _showCells() {
+    this.layerSize = this.n / this.shape[0];
+    const visible = [];
+    for (let f = 0; f < this.n; f++) if (this.seen(f)) visible.push(f);
+    this.geometry.setIndex(visible);
+    this.geometry.boundingSphere = null;
+    this._overlay("locked", [...this.locked].filter((f) => this.seen(f)), 0x202020, 0.5);
   }
 
   // The skin and the overlays share the cells' position (and colour) buffers, so they are never

@@ -21,6 +21,7 @@ export class Tools {
     $("#join").onclick = () => this._join(this.selection[0], this.selection[1]);
     $("#clear-selection").onclick = () => this.select([]);
     $("#look").addEventListener("change", (e) => this.ctx.view.look(e.target.value));
+    $("#layer").addEventListener("change", (e) => this._layer(e.target.value));
     $("#edit-apply").onclick = () => this._edit();
     for (const id of EDITS) $(id).addEventListener("input", (e) => { e.target.dataset.touched = "1"; });
     const pan = $("#mic-pan");
@@ -30,9 +31,29 @@ export class Tools {
 
   update(desc) {
     this.desc = desc;
+    this._fillLayers();
     this.selection = this.selection.filter((c) => desc.byId[c.lattice] && !desc.byId[c.lattice].cutFlat.includes(c.flat));
     this.select(this.selection);
     this._fillWhich();
+  }
+
+  // the layer choice: every block's layers along its first axis
+  _fillLayers() {
+    const sel = $("#layer"), keep = sel.value;
+    sel.innerHTML = "";
+    sel.append(el("option", { value: "", text: "all cells" }));
+    for (const l of this.desc.lattices) {
+      if (l.shape.length !== 3) continue;
+      for (let i = 0; i < l.shape[0]; i++) sel.append(el("option", { value: `${l.id}:${i}`, text: `${l.name}[${i}, :, :]` }));
+    }
+    sel.hidden = sel.options.length === 1;
+    sel.value = [...sel.options].some((o) => o.value === keep) ? keep : "";
+    this._layer(sel.value);
+  }
+
+  _layer(value) {
+    const [id, layer] = value ? value.split(":").map(Number) : [null, null];
+    this.ctx.view.setLayer(id, layer);
   }
 
   name(c) { const l = this.desc.byId[c.lattice]; return cellName(l.name, l.shape, c.flat); }
