@@ -192,13 +192,14 @@ def test_box_select_lock_cut_undo_and_a_mode_shape(sheet_patch, tmp_path):
         Select(driver.find_element("css selector", "#look")).select_by_value("top")   # rows and columns on screen axes
         corners = driver.execute_script(
             "const v = window.studio.view, r = v.canvas.getBoundingClientRect();"
-            "return [[0, 0], [2, 3]].map(([i, j]) => v.screenOf(0, i * 16 + j))"
+            "return [[0, 0], [2, 3], [0, 1]].map(([i, j]) => v.screenOf(0, i * 16 + j))"
             ".map((p) => [p.x - r.left - r.width / 2, p.y - r.top - r.height / 2]);")
-        (x0, y0), (x1, y1) = corners
-        pad = 6
+        (x0, y0), (x1, y1), (xn, yn) = corners
+        # the box's edges halfway to the next row and column: the cells may move a few pixels
+        pad = 0.5 * ((xn - x0) ** 2 + (yn - y0) ** 2) ** 0.5
         ActionChains(driver).move_to_element_with_offset(driver.find_element("css selector", "#view"),
-                                                         round(min(x0, x1)) - pad, round(min(y0, y1)) - pad) \
-            .key_down(Keys.SHIFT).click_and_hold().move_by_offset(round(abs(x1 - x0)) + 2 * pad, round(abs(y1 - y0)) + 2 * pad) \
+                                                         round(min(x0, x1) - pad), round(min(y0, y1) - pad)) \
+            .key_down(Keys.SHIFT).click_and_hold().move_by_offset(round(abs(x1 - x0) + 2 * pad), round(abs(y1 - y0) + 2 * pad)) \
             .release().key_up(Keys.SHIFT).perform()
         chosen = driver.execute_script("return window.studio.tools.selection.map((c) => c.flat).sort((a, b) => a - b)")
         assert chosen == sorted(i * 16 + j for i in range(3) for j in range(4)), chosen   # the pluck's sheet[3, 4] left out
