@@ -244,3 +244,30 @@ def test_a_microphone_placed_inside_a_block(tmp_path):
         driver.save_screenshot(str(out / "studio_block_layer.png"))
         text = send(driver, {"cmd": "state"})["result"]["text"]
     assert "  - blk[2, 3, 4].velocity -> mic2.in\n" in text
+
+
+def test_the_mapping_dialog_writes_map(tmp_path):
+    """The gesture-mapping dialog shows the patch's map: entries and writes an edited one back:
+    the text changes only in the value edited."""
+    browser_or_skip()
+    patch = tmp_path / "melody.yaml"
+    shutil.copyfile(ROOT / "patches" / "midi_melody.yaml", patch)
+    shutil.copyfile(ROOT / "patches" / "melody.mid", tmp_path / "melody.mid")
+    before = patch.read_text()
+    line = "  - {param: tone.amplitude, cc: 74, min: 0.1, max: 0.5, curve: exponential, smooth: 0.01}\n"
+    assert line in before
+    out = artifacts(tmp_path, "studio_mapping")
+    with studio(patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        driver.find_element("css selector", "#mapping-open").click()
+        rows = driver.find_elements("css selector", "#mapping-table tbody tr")
+        assert len(rows) == 1
+        assert rows[0].find_element("css selector", "[name=address]").get_attribute("value") == "74"
+        top = rows[0].find_element("css selector", "[name=max]")
+        top.clear()
+        top.send_keys("0.4")
+        driver.save_screenshot(str(out / "studio_mapping.png"))
+        driver.find_element("css selector", "#mapping-write").click()
+        until(lambda: driver.execute_script("return window.studio.desc.map[0].max") == 0.4, 60, "map: not written")
+        text = send(driver, {"cmd": "state"})["result"]["text"]
+    assert text == before.replace(line, line.replace("max: 0.5", "max: 0.4"))
