@@ -4,7 +4,10 @@ is submitted; a variant that fails is a row of the manifest, not a failed comman
 import json
 
 from .cli_common import UsageError
+from .fitting import fit
 from .sweep_manifest import SweepError
+from .sweep_spec import load_spec
+from .sweeps import sweep
 
 
 def _check_cluster_options(args):
@@ -17,8 +20,6 @@ def _check_cluster_options(args):
 
 
 def cmd_sweep(args):
-    from .sweep import sweep
-    from .sweep_spec import load_spec
     _check_cluster_options(args)
     if args.limit is not None and args.limit < 0:
         raise UsageError(f"--limit {args.limit}: expected 0 or more variants")
@@ -48,7 +49,6 @@ def print_table(spec):
 
 
 def cmd_fit(args):
-    from .fit import fit
     _check_cluster_options(args)
     try:
         result = fit(args.patch, args.target, args.axes, out=args.out, results=args.results,

@@ -60,8 +60,7 @@ def _singles(axes, sampled):
     """(axis, value) pairs checked one by one: every listed value, a sampled range's two ends."""
     for axis in axes:
         if sampled and axis.low is not None:
-            ends = [axis.at(0.0), axis.at(1.0)] if axis.scale == "linear" else [axis.low, axis.high]
-            values = [int(round(v)) if axis.integer else float(v) for v in ends]
+            values = [axis.snap(axis.low), axis.snap(axis.high)]
             yield from ((axis, v, axis.range_line) for v in dict.fromkeys(values))
         else:
             seen = []

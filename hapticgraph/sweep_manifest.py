@@ -24,7 +24,7 @@ STATUSES = ("ok", "runaway", "invalid", "timeout", "killed", "error")
 
 
 def columns_of(spec):
-    return list(HEAD) + spec.axis_names + list(spec.features) + list(TAIL)
+    return list(HEAD) + spec.axis_names + list(spec.features) + list(spec.extra_columns) + list(TAIL)
 
 
 class Manifest:

@@ -12,6 +12,8 @@ sweep file, never a failed task.
     axes:                         # block.param: a list of values, or a range
       loop.length: [99, 149, 199]
       damp.gain: {min: 0.99, max: 0.999, count: 4, scale: linear}   # log for decades
+      # a range may have `step: 1` (values rounded to multiples of it): a number the kernel
+      # holds as a literal (a delay's fractional length) compiles one kernel per value
     set: [mic.pan=0.0]            # fixed overrides, as --set
     features: [f0, t60, centroid, rms, peak]
     audio: flac                   # flac | wav | none
@@ -37,7 +39,7 @@ from .sweep_files import bundle_of
 SAMPLERS = ("grid", "random", "lhs", "sobol")
 AUDIO = ("flac", "wav", "none")
 KEYS = ("sweep", "patch", "seconds", "sampler", "seed", "count", "axes", "set", "features", "audio", "timeout")
-RANGE_KEYS = ("min", "max", "count", "scale")
+RANGE_KEYS = ("min", "max", "count", "scale", "step")
 MAX_VARIANTS = 1_000_000
 _AXIS = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\.[A-Za-z_][A-Za-z0-9_]*")
 
@@ -52,7 +54,7 @@ class Axis:
         self.block, self.param = name.split(".", 1)
         self.values, self.lines = [], []
         self.low = self.high = None
-        self.scale, self.integer = "linear", False
+        self.scale, self.integer, self.step = "linear", False, None
 
     def at(self, u):
         """The value at u in [0, 1) of a sampled axis."""
@@ -62,6 +64,12 @@ class Axis:
             value = self.low * (self.high / self.low) ** u
         else:
             value = self.low + u * (self.high - self.low)
+        return self.snap(value)
+
+    def snap(self, value):
+        """A value on the axis's `step` (if it has one), whole for an integer parameter."""
+        if self.step:
+            value = min(max(round(value / self.step) * self.step, self.low), self.high)
         return int(round(value)) if self.integer else float(value)
 
     def line_of(self, value):
@@ -79,7 +87,10 @@ class Variant:
 
 
 class SweepSpec:
-    """A checked sweep file. `variants` in order; `bundle` the patch and the files it reads."""
+    """A checked sweep file. `variants` in order; `bundle` the patch and the files it reads;
+    `extra_columns`: a fit's score columns."""
+
+    extra_columns = ()
 
     def __init__(self, **fields):
         self.__dict__.update(fields)
@@ -104,7 +115,7 @@ def load_spec(path):
     before = len(problems.problems)
     base = _base_patch(fields, registry, problems)
     loaded = base is not None and len(problems.problems) == before     # with `set:` applied
-    axes = _axes(doc, base, problems) if base is not None else []
+    axes = read_axes(doc.get("axes"), doc.lines.get("axes", doc.line), base, problems) if base is not None else []
     points = _points(fields, axes, doc, problems) if axes else []
     if loaded:
         check_variants(fields, registry, axes, points, problems)
@@ -237,11 +248,11 @@ def _base_patch(fields, registry, problems):
         return None
 
 
-def _axes(doc, patch, problems):
-    axes_doc = doc.get("axes")
+def read_axes(axes_doc, line, patch, problems):
+    """The Axis of each `block.param: values or range` of a mapping (checked against the patch)."""
     if not isinstance(axes_doc, LDict) or not axes_doc:
-        problems.add(doc.lines.get("axes", doc.line), "axes: expected a mapping of block.param to a list "
-                                                       "of values or a range {min, max, count, scale}")
+        problems.add(line, "axes: expected a mapping of block.param to a list of values or a range "
+                           "{min, max, count, scale}")
         return []
     axes = []
     for name, spec in axes_doc.items():
@@ -296,6 +307,7 @@ def _axis_values(axis, spec, problems):
     high = _number(spec, "max", problems, None, positive=False)
     axis.scale = _choice(spec, "scale", ("linear", "log"), problems)
     axis.count = _number(spec, "count", problems, None, integer=True)
+    axis.step = _number(spec, "step", problems, None)
     axis.range_line = spec.line
     if low is None or high is None:
         problems.add(spec.line, f"axes: {axis.name}: a range needs min and max")
@@ -334,7 +346,7 @@ def _grid_range(axis, problems):
         return
     space = np.geomspace if axis.scale == "log" else np.linspace
     points = space(axis.low, axis.high, axis.count) if axis.count > 1 else np.array([axis.low])
-    axis.values = [int(round(v)) if axis.integer else float(v) for v in points]
+    axis.values = list(dict.fromkeys(axis.snap(float(v)) for v in points))
     axis.lines = [axis.range_line] * len(axis.values)
 
 
@@ -351,4 +363,4 @@ def unit_points(sampler, count, dims, seed):
         return engine.random(count)
 
 
-__all__ = ["load_spec", "SweepSpec", "Axis", "Variant", "override", "variant_id", "unit_points", "Collector"]
+__all__ = ["load_spec", "read_axes", "SweepSpec", "Axis", "Variant", "override", "variant_id", "unit_points", "Collector"]

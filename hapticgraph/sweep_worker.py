@@ -103,14 +103,15 @@ def encode(audio, rate, kind):
     return buf.getvalue()
 
 
-def render_variant(bundle, job):
+def render_variant(bundle, job, score=None):
     """(row, audio bytes or None) for one variant. `job`: id, overrides, seconds, features
-    ({name: function}), audio (flac, wav or none), timeout."""
+    ({name: function}), audio (flac, wav or none), timeout; `score(audio, rate)`, if given, adds
+    columns to the row of a variant that rendered (a fit's distance to its target)."""
     row = {"id": job["id"], "status": "error", "error": "", "audio": "", "seconds_compile": 0.0,
            "seconds_run": 0.0, "worker": worker_name(), "kernel": "", "kernel_new": False,
            "kernel_compiled": False}
     try:
-        return _render(bundle, job, row)
+        return _render(bundle, job, row, score)
     except (PatchError, PlanError, DeviceError) as exc:
         row.update(status="invalid", error=_one_line(exc))
     except Exception as exc:  # noqa: BLE001 - a fault is a row; the sweep goes on
@@ -122,7 +123,7 @@ def _one_line(exc):
     return " / ".join(str(exc).splitlines()) or type(exc).__name__
 
 
-def _render(bundle, job, row):
+def _render(bundle, job, row, score):
     path = materialize(bundle)
     registry = _registries.setdefault(path, Registry())
     patch = load_patch(path, overrides=job["overrides"], registry=registry)
@@ -135,6 +136,8 @@ def _render(bundle, job, row):
     if status != "ok":
         return row, None
     row.update(compute(job["features"], audio, run.rate))
+    if score is not None:
+        row.update(score(audio, run.rate))
     data = None
     if job["audio"] != "none":
         data = encode(audio, run.rate, job["audio"])

@@ -88,6 +88,7 @@ class Tally:
 
     def __init__(self):
         self.statuses, self.kernels, self.compiled, self.workers, self.rendered = {}, 0, 0, set(), 0
+        self.rows = {}
         self.started = time.perf_counter()
 
     def add(self, row):
@@ -121,14 +122,17 @@ def _job(spec, variant):
             "audio": spec.audio, "timeout": spec.timeout}
 
 
-def submit_all(client, spec, todo, manifest, progress=None):
-    """Submit every variant of `todo` and write each row as its result arrives; a Tally."""
+def submit_all(client, spec, todo, manifest, progress=None, bundle=None, score=None, tally=None):
+    """Submit every variant of `todo` and write each row as its result arrives; the Tally (given or
+    new) with `rows`, {variant id: row}. `bundle`: the patch's files already scattered to the
+    workers; `score`: a fit's scorer (scattered), whose columns join each row."""
     from distributed import as_completed
-    tally = Tally()
-    bundle = client.scatter(spec.bundle, broadcast=True, hash=False)
+    tally = tally or Tally()
+    if bundle is None:
+        bundle = client.scatter([spec.bundle], broadcast=True, hash=False)[0]
     token = uuid.uuid4().hex[:8]
-    futures = {client.submit(render_variant, bundle, _job(spec, v), key=f"hapticgraph-variant-{v.id}-{token}",
-                             pure=False): v for v in todo}
+    futures = {client.submit(render_variant, bundle, _job(spec, v), score,
+                             key=f"hapticgraph-variant-{v.id}-{token}", pure=False): v for v in todo}
     bar = _bar(len(todo), progress)
     try:
         for future in as_completed(futures):
@@ -136,6 +140,7 @@ def submit_all(client, spec, todo, manifest, progress=None):
             row, audio = _outcome(future, variant)
             manifest.write(variant, row, audio)
             tally.add(row)
+            tally.rows[variant.id] = row
             bar.update(1)
             bar.set_postfix(failed=tally.failed, refresh=False)
             future.release()
@@ -152,8 +157,8 @@ def _outcome(future, variant):
     try:
         return future.result()
     except KilledWorker as exc:
-        return _row(variant, "killed", f"its worker died while rendering it, {ALLOWED_FAILURES + 1} time(s) "
-                                       f"({type(exc).__name__})"), None
+        return _row(variant, "killed", "its worker died while rendering it, each time it was tried "
+                                       f"({type(exc).__name__}: {exc})"), None
     except Exception as exc:  # noqa: BLE001 - lost by the cluster (cancelled, scheduler gone): a row
         return _row(variant, "error", f"{type(exc).__name__}: {exc}"), None
 
