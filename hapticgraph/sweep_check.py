@@ -17,7 +17,7 @@ def mapped(problem, fields, overrides):
     [(text, sweep line, label or None)]: the override it names (its `--set` text, or its block
     and parameter), else the `patch:` line with the patch's own FILE:LINE."""
     message = problem.message
-    for text, line, label in overrides:
+    for text, line, label in reversed(overrides):      # the last override of a parameter is the one in force
         target = text.partition("=")[0].strip()
         block, _, param = target.partition(".")
         quoted = f"--set {text!r}: "
