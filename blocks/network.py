@@ -10,11 +10,12 @@ import re
 
 import numpy as np
 
-from .family import Array, Control, Family, Flag, Group, Number, touching
+from .family import Array, Control, Family, Flag, Group, Number, Points, touching
 from .laws import network_step_for
 from . import points as pts
+from .numbers import whole_number
 
-_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,]*)\])?\s*")
+_REF = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([-0-9 ,.]*)\])?\s*")
 IDX = np.uint32
 EXACT_CELLS = 250_000   # networks up to this many cells are checked cell by cell, larger by a bound
 CELL_PORTS = {"force": "input", "position": "output", "velocity": "output"}
@@ -52,7 +53,7 @@ def parse_ref(text):
     if m.group(2) is None:
         return m.group(1), None
     try:
-        return m.group(1), tuple(int(v) for v in m.group(2).split(","))
+        return m.group(1), tuple(whole_number(v) for v in m.group(2).split(","))   # s[2.0] is s[2]
     except ValueError:
         return None
 
@@ -349,6 +350,26 @@ class Network(Group):
         cells = slice(comp.offset, comp.offset + comp.count)
         return self.pos[cells], self.vel[cells]
 
+    def points(self, block):
+        """A lattice's or a cell's cells as views of the network's arrays (Group.points)."""
+        comp = self.by_name.get(block)
+        if comp is None:
+            raise ValueError(f"{block!r} is a link of a network; it has no cells")
+        cells = slice(comp.offset, comp.offset + comp.count)
+        whole = comp.count == len(comp.compact)
+        shape = comp.shape if whole else (comp.count,)
+        index = np.argwhere(comp.compact.reshape(comp.shape) >= 0) if comp.shape else np.zeros((1, 0), dtype=np.int64)
+
+        def status():
+            cut = np.zeros(comp.count, dtype=bool)
+            for flat in self.cut_cells:
+                if cells.start <= flat < cells.stop:
+                    cut[flat - cells.start] = True
+            locked = (self.inv_m[cells] == 0.0) & ~cut
+            return locked.reshape(shape), cut.reshape(shape)
+        return Points(self.pos[cells].reshape(shape), self.vel[cells].reshape(shape), self.frc[cells].reshape(shape),
+                      comp.shape, index, status)
+
     def edit(self, block, index, action, apply=True):
         """Lock, unlock or cut a cell between kernel calls (the CSR path only); `apply=False`
         only checks."""
@@ -632,9 +653,9 @@ class MassSpring(Family):
     def check(cls, blocks, problems, declared, rate):
         before = len(problems.problems)
         from .refs import check_springs
-        check_springs(blocks, problems, declared)
+        resolved = check_springs(blocks, problems, declared)   # not when a link names a block in error
         check_cells(blocks, problems)      # before anything sized by the cells is built
-        if len(problems.problems) == before:
+        if resolved and len(problems.problems) == before:
             check_stability(blocks, rate, problems)
 
     @classmethod

@@ -8,7 +8,9 @@ from .network import (STABILITY_BOUND, ends_of, index_problem, is_link, is_mass_
 
 def check_springs(blocks, problems, declared=()):
     """Link references name existing points (cells not cut, point blocks, ground), and not the
-    same point twice. (`declared`: every block name of the patch, also those with problems.)"""
+    same point twice. (`declared`: every block name of the patch, also those with problems.)
+    True if every reference found its point (a block with problems of its own is not found)."""
+    resolved = True
     for inst in blocks.values():
         if not is_mass_spring(inst) or not is_link(inst):
             continue
@@ -19,9 +21,11 @@ def check_springs(blocks, problems, declared=()):
                                                                                           f"{where}: {m}"))
             if found is not None:
                 cells.append(found)
+            resolved = resolved and found is not None
         if len(cells) == 2 and cells[0] == cells[1]:
             ref = inst.values[ends_of(inst)[0]].strip()
             problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): joins cell {ref} to itself")
+    return resolved
 
 
 def _point_ref(text, blocks, declared, fail):

@@ -139,7 +139,7 @@ def _field(chk, name, node, where, keys, default_size, length, line):
     bit = chk.integer(node, "bit", where, 0, 7, default=0)
     size = default_size
     if "size" in node:
-        size = node["size"]
+        size = int(node["size"]) if is_int(node["size"]) else node["size"]
         if not is_int(size) or not 1 <= size <= 64:
             chk.add(line_of(node, "size"), f"{where}.size: {size!r} is not a size in bits from 1 to 64")
             size = None

@@ -8,6 +8,7 @@ import re
 
 import jsonschema
 
+from ..blocks.numbers import whole_number
 from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
 from .family import check_families, kernel_cost
 from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
@@ -46,7 +47,7 @@ class Endpoint:
         m = _ENDPOINT.fullmatch(text)
         if not m or (m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]")):
             return None
-        index = None if m.group(2) is None else tuple(int(v) for v in m.group(2).split(","))
+        index = None if m.group(2) is None else tuple(whole_number(v) for v in m.group(2).split(","))
         return cls(m.group(1), index, m.group(3))
 
     @staticmethod
@@ -235,7 +236,7 @@ def _apply_overrides(doc, overrides, registry, problems):
         target, sep, raw = text.partition("=")
         block, dot, param = target.strip().partition(".")
         if not sep or not dot or not block or not param:
-            problems.add(1, f"--set {text!r}: expected BLOCK.PARAM=VALUE")
+            problems.add(*_bare_set(text, block, blocks, registry))
             continue
         if not isinstance(blocks, LDict) or not isinstance(blocks.get(block), LDict):
             have = list(blocks) if isinstance(blocks, LDict) else []
@@ -258,6 +259,23 @@ def _apply_overrides(doc, overrides, registry, problems):
         if ok:
             entry[param] = value
             entry.lines[param] = line
+
+
+def _bare_set(text, block, blocks, registry):
+    """(line, message) of a --set that is not BLOCK.PARAM=VALUE: the block's parameters when it
+    names a block without one, else the block names with a did-you-mean."""
+    have = list(blocks) if isinstance(blocks, LDict) else []
+    entry = blocks.get(block) if isinstance(blocks, LDict) else None
+    cls = registry.types.get(entry.get("type")) if isinstance(entry, LDict) else None
+    if cls is not None:
+        public = [n for n, p in cls.params.items() if not p.internal]
+        return (blocks.lines.get(block, entry.line),
+                f"--set {text!r}: expected BLOCK.PARAM=VALUE; block {block!r} ({cls.type_name}) has the "
+                f"parameters: {_names(public)}")
+    if block and block.isidentifier() and block not in have:
+        return 1, (f"--set {text!r}: expected BLOCK.PARAM=VALUE; the patch has no block named "
+                   f"{block!r}{_suggest(block, have)}; its blocks: {_names(have)}")
+    return 1, f"--set {text!r}: expected BLOCK.PARAM=VALUE"
 
 
 def _connection_problem(text):

@@ -1,7 +1,11 @@
 """The patch document against its JSON Schema (assembled from the block declarations and the
 driver kinds), each violation told as FILE:LINE naming the block, parameter or key."""
-import jsonschema
+from contextlib import closing
 
+import jsonschema
+from jsonschema import validators
+
+from ..blocks.numbers import is_whole
 from .errors import _suggest
 from .schema import patch_schema
 from .source import LDict, line_of
@@ -33,8 +37,12 @@ def _check_schema(doc, registry, problems):
                         problems.add(spec.lines[key],
                                      f"block {name!r} ({kind}): unknown parameter {key!r}"
                                      f"{_suggest(key, public)}")
-    validator = jsonschema.Draft202012Validator(patch_schema(registry))
-    for err in validator.iter_errors(doc):
+    with closing(whole_errors(patch_schema(registry), doc)) as errors:
+        _report_schema(errors, doc, registry, skip_blocks, problems)
+
+
+def _report_schema(errors, doc, registry, skip_blocks, problems):
+    for err in errors:
         if problems.full:
             return
         path = list(err.absolute_path)
@@ -47,6 +55,41 @@ def _check_schema(doc, registry, problems):
         if len(path) == 3 and path[0] == "devices" and path[2] == "driver":
             continue  # an unknown driver, reported by _check_drivers with a suggestion
         problems.add(line_of(doc, path), _describe(err, path, doc, registry))
+
+
+_TYPE = jsonschema.Draft202012Validator.VALIDATORS["type"]
+
+
+def whole_errors(schema, doc):
+    """The errors of `doc` against `schema` (JSON Schema 2020-12), as they are found. Every float the schema
+    accepts as an integer (2.0: JSON Schema counts it as one) becomes an int in `doc`, in place,
+    so an index, a count or a length reaches the blocks as the integer it means; a float with a
+    fraction stays an error of the schema ("2.5 is not an integer", at its line). Floats are made
+ints when the generator ends or is closed (a caller stopping early closes it: `closing`)."""
+    accepted = set()
+
+    def type_(validator, types, instance, schema):
+        errors = list(_TYPE(validator, types, instance, schema))
+        named = [types] if isinstance(types, str) else list(types)
+        if not errors and isinstance(instance, float) and "integer" in named and "number" not in named:
+            accepted.add(id(instance))       # the document holds it, so the id stays its own
+        return errors
+
+    try:
+        yield from validators.extend(jsonschema.Draft202012Validator, {"type": type_})(schema).iter_errors(doc)
+    finally:
+        if accepted:
+            _make_whole(doc, accepted)
+
+
+def _make_whole(node, accepted):
+    """Replace, in the lists and mappings of `node`, each float whose id is in `accepted` by its int."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, value in list(items):
+        if isinstance(value, float) and id(value) in accepted and is_whole(value):
+            node[key] = int(value)
+        elif isinstance(value, (dict, list)):
+            _make_whole(value, accepted)
 
 
 def _describe(err, path, doc, registry):

@@ -23,10 +23,9 @@ later in a copy are reported once, at the template's line, under the template's 
 """
 import re
 
-import jsonschema
 
 from .source import LDict, LList, line_of
-from .validate import _describe
+from .validate import _describe, whole_errors
 
 SECTION = "voices"
 DEFAULT_PREFIX = "v"     # v1_NAME, v2_NAME, … (a name prefix, not the port named v)
@@ -92,7 +91,7 @@ def _read(doc, registry, problems):
     """(count, prefix, template blocks, template connections) of a well-formed section, else
     None with its problems reported."""
     section = doc[SECTION]
-    errors = list(jsonschema.Draft202012Validator(voices_schema()).iter_errors(section))
+    errors = list(whole_errors(voices_schema(), section))
     for err in errors:
         path = [SECTION] + list(err.absolute_path)
         problems.add(line_of(doc, path), _describe(err, path, doc, registry))

@@ -38,6 +38,7 @@ _LAZY = {
     "Patch": (".graph.patch", "Patch"),
     "Registry": (".graph.registry", "Registry"),
     "Render": (".graph.engine", "Render"),
+    "Session": (".session", "Session"),
     "PatchError": (".graph.errors", "PatchError"),
     "Problem": (".graph.errors", "Problem"),
     "PlanError": (".graph.program", "PlanError"),
@@ -119,6 +120,6 @@ def fit(patch, target, axes, client=None, **options):
     return _fit(patch, target, axes, client=client, **options)
 
 
-__all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render",
+__all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render", "Session",
            "load", "check", "render", "sweep", "fit", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
            "__version__"]

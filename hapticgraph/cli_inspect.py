@@ -5,7 +5,7 @@ import json
 import os
 import sys
 
-from .cli_common import UsageError
+from .cli_common import UsageError, check_output, input_files
 from .graph.errors import PatchError
 from .graph.patch import load
 from .graph.program import PlanError
@@ -83,9 +83,10 @@ def cmd_check(args):
 def cmd_graph(args):
     from .graph.export import to_dot, to_mermaid
     patch = load(args.patch)
+    out = check_output("-o", args.out, input_files(patch), "command") if args.out else None
     text = (to_dot if args.format == "dot" else to_mermaid)(patch)
-    if args.out:
-        with open(args.out, "w", encoding="utf-8") as f:
+    if out:
+        with open(out, "w", encoding="utf-8") as f:
             f.write(text)
     else:
         sys.stdout.write(text)
@@ -95,11 +96,14 @@ def cmd_graph(args):
 def cmd_modes(args):
     """The lowest modes of each network: K φ = ω² M φ (locked cells removed, damping ignored),
     sounding at f = (fs/π)·asin(ω/(2 fs)) under the half-step scheme; rigid modes print as 0 Hz."""
-    from .graph.modes import network_modes
+    from .graph.modes import BudgetError, network_modes
     if args.count < 1:
         raise UsageError("--count must be at least 1")
     patch = load(args.patch, overrides=args.overrides)
-    nets = network_modes(patch, args.count)
+    try:
+        nets = network_modes(patch, args.count)
+    except BudgetError as exc:            # the count past the memory budget: the largest that fits
+        raise UsageError(f"--count {args.count}: {exc}") from None
     if args.json:
         print(json.dumps({"patch": args.patch, "rate": patch.rate, "networks": [m.as_dict() for m in nets]},
                          indent=2))
@@ -131,6 +135,7 @@ def cmd_plot(args):
         raise UsageError(f"--mode {args.mode}: modes are numbered from 1 (the lowest), as "
                          f"`hapticgraph modes` lists them")
     patch = load(args.patch, overrides=args.overrides)
+    check_output("-o", args.out, input_files(patch), "command")
     if args.mode is not None or args.lattice:
         return _plot_mode(args, patch, plot)
     return _plot_render(args, patch, plot)
