@@ -57,8 +57,8 @@ def _log_error(a, b):
 
 
 class Score:
-    """A render's distance to the target (its columns: distance, f0, t60, centroid). Scattered to
-    the workers once; called there on each render's audio."""
+    """A render's distance to the target (its columns: distance, f0, t60, centroid), sent with each
+    task and called by the worker on the render's audio."""
 
     def __init__(self, target, rate):
         self.target = mono(target)
@@ -177,8 +177,7 @@ class _Evaluator:
 
     def __init__(self, client, spec, manifest, tally, score):
         self.client, self.spec, self.manifest, self.tally = client, spec, manifest, tally
-        self.bundle = client.scatter([spec.bundle], broadcast=True, hash=False)[0]
-        self.score = client.scatter([score], broadcast=True, hash=False)[0]
+        self.score = score
 
     def _variant(self, u):
         values = tuple(a.at(float(x)) for a, x in zip(self.spec.axes, u))
@@ -195,7 +194,7 @@ class _Evaluator:
         variants = [self._variant(u) for u in population]
         new = [v for v in {v.id: v for v in variants}.values() if v.id not in self.tally.rows]
         if new:
-            submit_all(self.client, self.spec, new, self.manifest, False, self.bundle, self.score, self.tally)
+            submit_all(self.client, self.spec, new, self.manifest, False, self.score, self.tally)
         return [self._distance(self.tally.rows[v.id]) for v in variants]
 
     def one(self, u):

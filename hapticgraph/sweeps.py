@@ -122,16 +122,16 @@ def _job(spec, variant):
             "audio": spec.audio, "timeout": spec.timeout}
 
 
-def submit_all(client, spec, todo, manifest, progress=None, bundle=None, score=None, tally=None):
+def submit_all(client, spec, todo, manifest, progress=None, score=None, tally=None):
     """Submit every variant of `todo` and write each row as its result arrives; the Tally (given or
-    new) with `rows`, {variant id: row}. `bundle`: the patch's files already scattered to the
-    workers; `score`: a fit's scorer (scattered), whose columns join each row."""
+    new) with `rows`, {variant id: row}. `score`: a fit's scorer, whose columns join each row.
+
+    The patch's files go with each task rather than scattered once: data scattered to workers is
+    lost for good when they die, and a sweep outlives its workers."""
     from distributed import as_completed
     tally = tally or Tally()
-    if bundle is None:
-        bundle = client.scatter([spec.bundle], broadcast=True, hash=False)[0]
     token = uuid.uuid4().hex[:8]
-    futures = {client.submit(render_variant, bundle, _job(spec, v), score,
+    futures = {client.submit(render_variant, spec.bundle, _job(spec, v), score,
                              key=f"hapticgraph-variant-{v.id}-{token}", pure=False): v for v in todo}
     bar = _bar(len(todo), progress)
     try:
