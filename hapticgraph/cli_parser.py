@@ -230,8 +230,7 @@ def _add_fit(sub):
     fit = _command(sub, "fit", "find the parameter values whose sound matches a recording",
                    "Fit the axes of AXES.yaml (block.param: {min, max}) so that the patch's sound matches "
                    "TAKE.wav: a multi-resolution spectral distance plus feature errors, minimised by "
-                   "scipy's differential evolution evaluated in parallel on Dask (--method optuna or "
-                   "nevergrad when installed). Every evaluation is a row of RESULTS/manifest.csv; the "
+                   "scipy's differential evolution evaluated in parallel on Dask. Every evaluation is a row of RESULTS/manifest.csv; the "
                    "best patch is written with the found values.",
                    ["hapticgraph fit ks.yaml --target take.wav --axes axes.yaml --out ks_fitted.yaml",
                     "hapticgraph fit ks.yaml --target take.wav --axes axes.yaml --popsize 8 --maxiter 30"])
@@ -244,6 +243,4 @@ def _add_fit(sub):
     fit.add_argument("--seed", type=int, default=1, help="the optimiser's seed (default 1)")
     fit.add_argument("--popsize", type=int, default=10, help="population per axis (default 10)")
     fit.add_argument("--maxiter", type=int, default=40, help="generations at most (default 40)")
-    fit.add_argument("--method", choices=("de", "optuna", "nevergrad"), default="de",
-                     help="differential evolution (default), or optuna / nevergrad when installed")
     _cluster_options(fit)

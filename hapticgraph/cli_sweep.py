@@ -54,7 +54,7 @@ def cmd_fit(args):
         result = fit(args.patch, args.target, args.axes, out=args.out, results=args.results,
                      seed=args.seed, popsize=args.popsize, maxiter=args.maxiter, seconds=args.seconds,
                      workers=args.workers, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
-                     method=args.method, progress=False if args.quiet else None)
+                     progress=False if args.quiet else None)
     except SweepError as exc:
         raise UsageError(str(exc)) from None
     for name, value in result.values.items():
