@@ -64,10 +64,10 @@ def test_fit_command_line_writes_the_best_patch_and_a_bad_axes_file_exits_2(tmp_
     patch = tmp_path / "ks.yaml"
     shutil.copy(ROOT / "patches" / "karplus_strong.yaml", patch)
     soundfile.write(tmp_path / "take.wav", hapticgraph.render(hapticgraph.load(patch), seconds=0.1).audio, 44100)
-    (tmp_path / "bad.yaml").write_text("damp.gain: {min: 0.9, max: 3.0}\n")
+    (tmp_path / "bad.yaml").write_text("mic.pan: {min: 0.0, max: 3.0}\n")
     args = [sys.executable, "-m", "hapticgraph", "fit", str(patch), "--target", str(tmp_path / "take.wav")]
     bad = subprocess.run(args + ["--axes", str(tmp_path / "bad.yaml")], capture_output=True, text=True, timeout=300)
-    assert bad.returncode == 2 and bad.stderr.startswith(f"{tmp_path / 'bad.yaml'}:1: damp.gain=3.0:"), bad.stderr
+    assert bad.returncode == 2 and bad.stderr.startswith(f"{tmp_path / 'bad.yaml'}:1: mic.pan=3.0:"), bad.stderr
     (tmp_path / "axes.yaml").write_text("damp.gain: {min: 0.99, max: 0.999}\n")
     done = subprocess.run(args + ["--axes", str(tmp_path / "axes.yaml"), "--workers", "1", "--popsize", "2",
                                   "--maxiter", "1", "--quiet"], capture_output=True, text=True, timeout=600)
