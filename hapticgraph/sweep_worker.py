@@ -125,7 +125,9 @@ def _one_line(exc):
 
 def _render(bundle, job, row, score):
     path = materialize(bundle)
-    registry = _registries.setdefault(path, Registry())
+    registry = _registries.get(path)
+    if registry is None:                        # the entry points are read once per patch, not per variant
+        registry = _registries[path] = Registry()
     patch = load_patch(path, overrides=job["overrides"], registry=registry)
     run = KernelRun(patch, open_drivers(patch))
     row.update(seconds_compile=run.compile_seconds, kernel=run.key, kernel_new=run.new, kernel_compiled=run.compiled)
