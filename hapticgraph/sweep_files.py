@@ -49,10 +49,8 @@ def materialize(bundle):
     path = _ready.get(digest)
     if path is not None:
         return path
-    folder = os.path.join(tempfile.gettempdir(), f"hapticgraph-sweep-{os.getuid() if hasattr(os, 'getuid') else 0}",
-                          digest[:24])
+    folder = os.path.join(_own_folder(), digest[:24])
     if not _whole(folder, bundle):
-        os.makedirs(os.path.dirname(folder), mode=0o700, exist_ok=True)
         tmp = tempfile.mkdtemp(prefix=".bundle.", dir=os.path.dirname(folder))
         try:
             for rel, data in bundle["files"].items():
@@ -70,6 +68,23 @@ def materialize(bundle):
             shutil.rmtree(tmp, ignore_errors=True)
     path = _ready[digest] = os.path.join(folder, *bundle["patch"].split("/"))
     return path
+
+
+def _own_folder():
+    """hapticgraph-sweep-UID in the temporary folder, made private; a private folder of its own if
+    that name is taken by another user (a shared /tmp)."""
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    folder = os.path.join(tempfile.gettempdir(), f"hapticgraph-sweep-{uid}")
+    os.makedirs(folder, mode=0o700, exist_ok=True)
+    info = os.lstat(folder)
+    if os.path.islink(folder) or (hasattr(os, "getuid") and (info.st_uid != uid or info.st_mode & 0o022)):
+        if not _private:
+            _private.append(tempfile.mkdtemp(prefix="hapticgraph-sweep-"))
+        return _private[0]
+    return folder
+
+
+_private = []
 
 
 def _whole(folder, bundle):

@@ -35,6 +35,7 @@ class Manifest:
         self.columns = columns_of(spec)
         self.path = os.path.join(self.out, "manifest.csv")
         self.rows = []
+        self._last = None          # {id: its last row}, made when first asked
         os.makedirs(os.path.join(self.out, "audio"), exist_ok=True)
         if os.path.exists(self.path):
             self._reopen(resume)
@@ -66,10 +67,9 @@ class Manifest:
 
     def done(self, variant):
         """True if the variant's last row is `ok` and its audio file is whole."""
-        last = None
-        for row in self.rows:
-            if row["id"] == variant.id:
-                last = row
+        if self._last is None:
+            self._last = {row["id"]: row for row in self.rows}
+        last = self._last.get(variant.id)
         if last is None or last["status"] != "ok":
             return False
         if self.spec.audio == "none":
@@ -98,6 +98,8 @@ class Manifest:
         self.writer.writerow(full)
         self.file.flush()
         self.rows.append({k: str(full.get(k, "")) for k in self.columns})
+        if self._last is not None:
+            self._last[row["id"]] = self.rows[-1]
 
     def close(self):
         self.file.close()
