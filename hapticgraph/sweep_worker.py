@@ -38,7 +38,8 @@ kernels = {"keys": set(), "compiled": 0}      # structures used here, and kernel
 
 
 def _count_compile(text):
-    """graph/kernel's notice: told only when numba compiles (never for a kernel re-used or loaded)."""
+    """graph/kernel's notice (set_notice): told only when a kernel is compiled, never when one is
+    re-used or loaded from the cache."""
     if text.startswith("compiling"):
         kernels["compiled"] += 1
 
@@ -47,12 +48,12 @@ class KernelRun:
     """The engine seen by a sweep: a patch's kernel run block by block (graph.engine.Session)."""
 
     def __init__(self, patch, drivers):
-        previous, kernel_module.notice = kernel_module.notice, _count_compile
+        kernel_module.set_notice(_count_compile)     # a worker process tells nobody else of compiles
         compiled = kernels["compiled"]
         try:
             self.session = Session(patch, (), drivers, "compiled", blocksize=BLOCKSIZE, runaway=RUNAWAY)
         finally:
-            kernel_module.notice = previous
+            kernel_module.set_notice(None)
         runner = self.session.runner
         self.key, self.compile_seconds = runner.key, runner.compile_seconds
         self.compiled = kernels["compiled"] > compiled
