@@ -79,3 +79,18 @@ def test_a_plugin_registers_a_feature_and_compute_uses_it():
         features._table.pop("zero_crossings")
     with pytest.raises(ValueError):
         features.register_feature("not a name", len)
+
+
+def test_an_installed_package_adds_a_feature_through_the_entry_point_group(tmp_path, monkeypatch):
+    dist = tmp_path / "hg_feature_demo-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: hg-feature-demo\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[hapticgraph.features]\nloudness = hg_feature_demo:loudness\n")
+    (tmp_path / "hg_feature_demo.py").write_text("def loudness(audio, rate):\n    return 42.0\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(features, "_entry_points_read", [])
+    try:
+        table = features.feature_table()
+        assert table["loudness"](np.zeros(4), RATE) == 42.0 and "f0" in table
+    finally:
+        features._table.pop("loudness", None)
