@@ -42,6 +42,30 @@ class Control:
     inverse: bool = False
 
 
+@dataclass(frozen=True)
+class Points:
+    """The points (cells) of one member of a group, as numpy views of the group's arrays: writing
+    into one changes what the next step reads. `positions`, `velocities` and `forces` (the force
+    each point receives in the next sample, cleared by every step) are shaped like the member
+    (`shape`; () for a single cell) when it has all its cells, else one entry per cell it has
+    (`cells` lists their indices, one row each). `status()` -> (locked, cut), bool arrays like
+    `positions`, as they are now."""
+    positions: object
+    velocities: object
+    forces: object
+    shape: tuple
+    cells: object
+    status: object
+
+    @property
+    def locked(self):
+        return self.status()[0]
+
+    @property
+    def cut(self):
+        return self.status()[1]
+
+
 class Family:
     """The protocol of a fused family (class methods; subclass it)."""
 
@@ -121,6 +145,10 @@ class Group:
     def views(self, block):
         """Writable views of what `block` remembers between samples (a reload carries them)."""
         return ()
+
+    def points(self, block):
+        """The Points of member `block`; ValueError if it has none to show."""
+        raise ValueError(f"{block!r}: its group has no points to read")
 
     def edit(self, block, index, action, apply=True):
         """Change a point between kernel calls (e.g. lock, unlock, cut); ValueError if refused;

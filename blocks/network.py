@@ -10,7 +10,7 @@ import re
 
 import numpy as np
 
-from .family import Array, Control, Family, Flag, Group, Number, touching
+from .family import Array, Control, Family, Flag, Group, Number, Points, touching
 from .laws import network_step_for
 from . import points as pts
 from .numbers import whole_number
@@ -349,6 +349,26 @@ class Network(Group):
         comp = self.by_name[block]
         cells = slice(comp.offset, comp.offset + comp.count)
         return self.pos[cells], self.vel[cells]
+
+    def points(self, block):
+        """A lattice's or a cell's cells as views of the network's arrays (Group.points)."""
+        comp = self.by_name.get(block)
+        if comp is None:
+            raise ValueError(f"{block!r} is a link of a network; it has no cells")
+        cells = slice(comp.offset, comp.offset + comp.count)
+        whole = comp.count == len(comp.compact)
+        shape = comp.shape if whole else (comp.count,)
+        index = np.argwhere(comp.compact.reshape(comp.shape) >= 0) if comp.shape else np.zeros((1, 0), dtype=np.int64)
+
+        def status():
+            cut = np.zeros(comp.count, dtype=bool)
+            for flat in self.cut_cells:
+                if cells.start <= flat < cells.stop:
+                    cut[flat - cells.start] = True
+            locked = (self.inv_m[cells] == 0.0) & ~cut
+            return locked.reshape(shape), cut.reshape(shape)
+        return Points(self.pos[cells].reshape(shape), self.vel[cells].reshape(shape), self.frc[cells].reshape(shape),
+                      comp.shape, index, status)
 
     def edit(self, block, index, action, apply=True):
         """Lock, unlock or cut a cell between kernel calls (the CSR path only); `apply=False`

@@ -353,9 +353,9 @@ class Player:
             except Exception:  # noqa: BLE001 - a stream already finished
                 pass
             self.stream.close()
-            self.bound.session.stop()
-            if self.recorder is not None:
+            if self.recorder is not None:      # the take and the WAV complete before any device closes
                 self.recorder.close()
+            self.bound.session.stop()          # each device within its deadline (graph.engine.stop_driver)
             if self.probe_out is not None:
                 self.probe_out.close()
         if self.error is not None:

@@ -2,6 +2,7 @@
 as possible, and hand each block to a sink: `render` keeps arrays, `run` streams files
 (hapticgraph.devices.files.FileSink), so memory stays flat whatever the length."""
 import sys
+import threading
 import time
 
 import numpy as np
@@ -11,6 +12,7 @@ from .kernel import CompiledKernel
 from .program import Program
 
 ENGINES = ("compiled", "python")
+STOP_SECONDS = 5.0      # how long a device may take to stop before it is abandoned (Session.stop)
 
 
 class Driver:
@@ -49,6 +51,29 @@ class Driver:
 
     def stop(self):
         pass
+
+
+def stop_driver(name, driver, seconds=None):
+    """`driver.stop()` on a thread of its own, waited for `seconds` (STOP_SECONDS): no device can
+    keep a run from ending. Past that the device is abandoned — its thread left running, a daemon
+    — with one line on stderr naming it; False. An exception from `stop` is raised here."""
+    failed = []
+
+    def run():
+        try:
+            driver.stop()
+        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+            failed.append(exc)
+    seconds = STOP_SECONDS if seconds is None else seconds
+    thread = threading.Thread(target=run, daemon=True, name=f"stop {name}")
+    thread.start()
+    thread.join(seconds)
+    if thread.is_alive():
+        print(f"hapticgraph: device {name!r} did not close within {seconds:g} s: abandoned", file=sys.stderr)
+        return False
+    if failed:
+        raise failed[0]
+    return True
 
 
 class Render:
@@ -122,9 +147,10 @@ class Session:
             self.started = True
 
     def stop(self):
+        """Stop every driver, each within STOP_SECONDS (hapticgraph.graph.engine.stop_driver)."""
         if self.started:
-            for driver in self.drivers:
-                driver.stop()
+            for name, driver in self.prog.drivers.items():
+                stop_driver(name, driver)
             self.started = False
 
     def edit(self, fn, *args):

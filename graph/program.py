@@ -17,7 +17,6 @@ from .guard import Guard
 from .items import schedule_items
 
 
-
 class PlanError(Exception):
     pass
 
@@ -98,7 +97,7 @@ class Program:
             return
         for k, v in bp.coefs.items():
             if isinstance(v, tuple):   # an array coefficient: rewritten in place
-                bp.coef_arrays[k] = self._array(v, bp.ident, k)
+                bp.coef_arrays[k] = self.array(v, bp.ident, k)
             elif not live_read and (isinstance(v, (bool, float))):
                 # a flag or a filter coefficient fixed by the patch: a literal numba folds (0.0
                 # and 1.0 terms vanish; as data they cost a register each: the waveguide string
@@ -230,8 +229,6 @@ class Program:
         self.array_nodes.append(node)
         return node
 
-    _array = array
-
     def number(self, value, kind, prefix, attr):
         """A number the kernel reads as data (coef[slot], loaded into the local `prefix_attr`
         before the sample loop), so that changing it re-uses the compiled kernel."""
@@ -251,7 +248,7 @@ class Program:
         numbers and tables are data (a coef slot, an array), so editing them re-uses the kernel."""
         value = _freeze(value)
         if isinstance(value, tuple):
-            return self._array(value, bp.ident, attr)
+            return self.array(value, bp.ident, attr)
         if isinstance(value, (bool, str)) or value is None:
             return Literal(value)
         return self.number(value, Coef.kind_of(value), bp.ident, attr)
@@ -320,16 +317,18 @@ class Program:
     def edit_cell(self, block, index, action, apply=True):
         """Lock, unlock or cut `block[index]` between kernel calls (needs `editable=True`);
         `apply=False` only checks (PlanError if refused)."""
-        gs = self.group_of.get(block)
+        index = tuple(index) if index is not None else None
+        return self._ask(block, lambda group: group.edit(block, index, action, apply))
+
+    def _ask(self, block, question):
+        """`question(group)` of the fused group of `block`; PlanError if it has none or refuses."""
+        gs = self.group_of.get(self._plan(block).name)
         if gs is None:
             raise PlanError(f"{block!r} is not a lattice or cell block")
         try:
-            return gs.group.edit(block, tuple(index) if index is not None else None, action, apply)
+            return question(gs.group)
         except ValueError as exc:
             raise PlanError(str(exc)) from None
-
-    def check_edit(self, block, index, action):
-        self.edit_cell(block, index, action, apply=False)
 
     def check_set(self, block, name, value):
         """PlanError if set_param(block, name, value) would be refused (nothing changes)."""
@@ -373,6 +372,10 @@ class Program:
         if gs is not None:
             views += gs.group.views(block)
         return tuple(views)
+
+    def points(self, block):
+        """The Points (blocks/family.py) of a lattice or cell block: numpy views of its cells."""
+        return self._ask(block, lambda group: group.points(block))
 
     def block_values(self, block):
         """The parameter values `block` plays with now: the patch's, with the changes set_param

@@ -38,6 +38,7 @@ _LAZY = {
     "Patch": (".graph.patch", "Patch"),
     "Registry": (".graph.registry", "Registry"),
     "Render": (".graph.engine", "Render"),
+    "Session": (".session", "Session"),
     "PatchError": (".graph.errors", "PatchError"),
     "Problem": (".graph.errors", "Problem"),
     "PlanError": (".graph.program", "PlanError"),
@@ -102,6 +103,6 @@ def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devi
                    safety=safety, chunk=chunk, runaway=runaway)
 
 
-__all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render",
+__all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render", "Session",
            "load", "check", "render", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
            "__version__"]

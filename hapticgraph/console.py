@@ -4,22 +4,21 @@
     lock NAME[i, j]            a cell stops moving        unlock NAME[i, j]   it moves again
     cut NAME[i, j]             a cell leaves its lattice, with its springs
 
-Each command is checked here, then queued and applied by the audio thread at the next block
-boundary, without a recompile. Mistakes are reported and change nothing.
+Each command is checked by the playing hapticgraph.Session, then queued and applied by the audio
+thread at the next block boundary, without a recompile. Mistakes are reported and change nothing.
 """
 import re
 import sys
 import threading
 
-from .blocks.network import parse_ref
 from .graph.errors import name_list, suggest
-from .graph.program import PlanError
 
 HELP = "commands: set BLOCK.PARAM VALUE | lock NAME[i, j] | unlock NAME[i, j] | cut NAME[i, j] | help"
 
 
-def parse(line, prog):
-    """(function, args, description) for one command line; ValueError with a message if wrong."""
+def submit(line, session, done=None):
+    """Ask `session` (a hapticgraph.Session) for the change one command line says; its text, or
+    None for a blank line. ValueError with a message if the command is wrong or refused."""
     words = line.strip().split(None, 1)
     if not words:
         return None
@@ -29,26 +28,19 @@ def parse(line, prog):
         if not m:
             raise ValueError("set BLOCK.PARAM VALUE")
         block, name, raw = m.groups()
-        _check_live(prog, block, name)
+        _check_live(session.program, block, name)
         try:
             value = float(raw)
         except ValueError:
             raise ValueError(f"{raw!r} is not a number") from None
-        try:
-            prog.check_set(block, name, value)
-        except PlanError as exc:
-            raise ValueError(str(exc)) from None
-        return prog.set_param, (block, name, value), f"{block}.{name} = {value:g}"
-    if verb in ("lock", "unlock", "cut"):
-        ref = parse_ref(rest)
-        if ref is None:
+        session.set(block, name, value, done)
+        return f"{block}.{name} = {value:g}"
+    cells = {"lock": session.lock, "unlock": session.unlock, "cut": session.cut}
+    if verb in cells:
+        if not rest.strip():
             raise ValueError(f"{verb} NAME[i, j]")
-        name, index = ref
-        try:
-            prog.check_edit(name, index, verb)
-        except PlanError as exc:
-            raise ValueError(str(exc)) from None
-        return prog.edit_cell, (name, index, verb), f"{verb} {rest.strip()}"
+        cells[verb](rest, done)
+        return f"{verb} {rest.strip()}"
     if verb == "help":
         raise ValueError(HELP)
     raise ValueError(f"unknown command {verb!r}; {HELP}")
@@ -70,31 +62,26 @@ def _check_live(prog, block, name):
 
 
 class Console(threading.Thread):
-    """Reads commands from `stream` and queues them on the session `current()` returns."""
+    """Reads commands from `stream` and queues them on the Session `current()` returns (the one
+    playing now: --watch may have swapped another in). `applied` lists what was applied."""
 
     def __init__(self, current, stream=None, out=None):
         super().__init__(daemon=True, name="hapticgraph-console")
         self.current, self.stream, self.out = current, stream or sys.stdin, out or sys.stderr
         self.applied = []
 
+    def _done(self, text, error):
+        # on the audio thread: checked when typed, refused only if the patch changed since
+        self.applied.append(text if error is None else f"refused: {error}")
+
     def submit(self, line):
-        session = self.current()
         try:
-            parsed = parse(line, session.prog)
+            text = submit(line, self.current(), self._done)
         except ValueError as exc:
             print(f"hapticgraph: {exc}", file=self.out)
             return False
-        if parsed is None:
+        if text is None:
             return False
-        fn, args, text = parsed
-
-        def apply():
-            try:
-                fn(*args)
-                self.applied.append(text)
-            except PlanError as exc:   # checked above; kept harmless should the patch have changed
-                self.applied.append(f"refused: {exc}")
-        session.edit(apply)
         print(f"hapticgraph: {text}", file=self.out)
         return True
 

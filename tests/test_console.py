@@ -3,43 +3,46 @@ import io
 
 import numpy as np
 
-from hapticgraph.console import Console, parse
+import hapticgraph
+from conftest import EDITABLE_STRING
+from hapticgraph.console import Console, submit
 
-def session(string_session, editable=True):
-    return string_session(256, editable)
+
+def session(write_patch, editable=True):
+    return hapticgraph.Session.open(write_patch(EDITABLE_STRING), blocksize=256, editable=editable)
 
 
-def test_commands_apply_at_the_next_block(string_session):
-    s = session(string_session)
+def test_commands_apply_at_the_next_block(write_patch):
+    s = session(write_patch)
     out = io.StringIO()
     console = Console(lambda: s, stream=io.StringIO("set mic.gain 0\nlock str[20]\ncut str[30]\n"), out=out)
     console.run()                     # read every line (the thread's body), queue the edits
-    assert s.prog.live[s.prog.by_name["mic"].live["gain"]] == 1.0    # nothing applied yet
+    assert s.params("mic")["gain"] == 1.0 and s.pending == 3    # nothing applied yet
     s.process(256)
     assert console.applied == ["mic.gain = 0", "lock str[20]", "cut str[30]"]
-    net = s.prog.groups[0].group
-    assert net.inv_m[20] == 0.0 and net.inv_m[30] == 0.0
+    cells = s.points("str")
+    assert cells.locked[20] and cells.cut[30] and not cells.locked[30]
     assert np.all(s.process(256)[:, 0] == 0.0)
 
 
-def test_mistakes_change_nothing(string_session):
-    s = session(string_session)
+def test_mistakes_change_nothing(write_patch):
+    s = session(write_patch)
     out = io.StringIO()
     console = Console(lambda: s, stream=io.StringIO(
         "set mic.nope 1\nset mic.pan 3\nset nobody.gain 1\nlock str[99]\nfrobnicate\nset hit.force x\n"), out=out)
     console.run()
     s.process(256)
-    assert console.applied == [] and not s.edits
+    assert console.applied == [] and s.pending == 0
     text = out.getvalue()
     for needle in ("mic.nope is not a live parameter", "outside the range of mic.pan", "no block named 'nobody'",
                    "out of range", "unknown command 'frobnicate'", "'x' is not a number"):
         assert needle in text
 
 
-def test_stencil_sessions_refuse_cell_edits(string_session):
-    s = session(string_session, editable=False)
+def test_stencil_sessions_refuse_cell_edits(write_patch):
+    s = session(write_patch, editable=False)
     try:
-        parse("lock str[3]", s.prog)
+        submit("lock str[3]", s)
     except ValueError as exc:
         assert "stencil" in str(exc)
     else:

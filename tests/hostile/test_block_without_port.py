@@ -3,8 +3,10 @@
 name that is no block."""
 import io
 
+from conftest import EDITABLE_STRING
 from hostile_env import assert_patch_error
 
+import hapticgraph
 from hapticgraph.console import Console
 
 PATCH = """hapticgraph: 1
@@ -38,8 +40,8 @@ def test_set_of_a_block_lists_its_parameters(hg, write_patch):
     assert_patch_error(proc, "no block named 'tonne' (did you mean 'tone'?)")
 
 
-def test_console_set_of_a_block_lists_its_live_parameters(string_session):
-    s = string_session(64)
+def test_console_set_of_a_block_lists_its_live_parameters(write_patch):
+    s = hapticgraph.Session.open(write_patch(EDITABLE_STRING), blocksize=64)
     out = io.StringIO()
     Console(lambda: s, stream=io.StringIO("set mic 0.5\nset mik.gain 1\nset mic.gian 1\n"), out=out).run()
     text = out.getvalue().splitlines()
