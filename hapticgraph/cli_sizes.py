@@ -74,10 +74,11 @@ def _disk(needs, frames, rate, free):
         total = sum(size for _, _, size in group)
         have = free(group[0][1])
         if total > have:
-            each = " and ".join(f"{option} {path!r} ({_size(size)}{' while written' if option == '--probes' else ''})"
-                                for option, path, size in group if size)
+            sized = [(option, path, size) for option, path, size in group if size]
+            each = " and ".join(f"{option} {path!r}" + (f" ({_size(size)}{' while written' if option == '--probes' else ''})"
+                                                         if len(sized) > 1 else "") for option, path, size in sized)
             raise UsageError(f"{each}: {frames / rate:g} s at {rate:g} Hz need {_size(total)}; the disk "
-                             f"holding {'them' if len(group) > 1 else 'it'} has {_size(have)} free")
+                             f"holding {'them' if len(sized) > 1 else 'it'} has {_size(have)} free")
 
 
 def _size(n):
