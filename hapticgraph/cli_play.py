@@ -4,6 +4,7 @@ import signal
 import sys
 
 from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files
+from .cli_sizes import size_take
 from .devices import DeviceError, audio, check_choices, open_drivers
 from .devices.kinds import input_kind
 from .devices.record import Recorder
@@ -49,11 +50,14 @@ def cmd_play(args):
 
 def _check_record(args, patch):
     """--record TAKE writes TAKE.hgrec and TAKE.wav: neither may be a file this play reads (the
-    patch, a plugin, an audio_in file, the take --replay plays), checked before any device opens."""
+    patch, a plugin, an audio_in file, the take --replay plays), and with --seconds the WAV must
+    fit its format and the disk (cli_sizes), checked before any device opens."""
     from .devices.take import take_paths
     inputs = input_files(patch, args.replay)
     for path in take_paths(args.record):
         check_output("--record", path, inputs, "play")
+    if args.seconds is not None:
+        size_take(take_paths(args.record)[1], round(args.seconds * patch.rate), patch.rate, audio_channels(patch))
 
 
 def _check_options(args):

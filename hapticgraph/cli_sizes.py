@@ -86,3 +86,16 @@ def _size(n):
         if n >= scale:
             return f"{n / scale:.3g} {unit}"
     return f"{n} bytes"
+
+
+def size_take(wav_path, frames, rate, channels, free=free_bytes):
+    """`play --record --seconds`: the take's WAV (32-bit float; devices/record.FloatWav writes a
+    plain RIFF header, 32-bit sizes) must fit WAV_LIMIT and the disk, checked before any device
+    opens; UsageError naming --record. (Without --seconds the length is unknown: a full disk ends
+    the recording keeping what was written.)"""
+    size = frames * max(1, channels) * 4 + HEADER
+    what = f"--record {wav_path!r}: {frames / rate:g} s at {rate:g} Hz make {_size(size)}"
+    if size > WAV_LIMIT:
+        raise UsageError(f"{what}; a take's WAV holds at most {_size(WAV_LIMIT)}: record shorter takes")
+    if size > free(wav_path):
+        raise UsageError(f"{what}; the disk holding it has {_size(free(wav_path))} free")

@@ -41,6 +41,17 @@ def test_a_render_no_disk_can_take_is_refused_at_once(hg, write_patch, tmp_path)
     assert_patch_error(proc, "AIFF holds at most 4.29 GB")
 
 
+def test_a_take_is_sized_before_play_opens_anything(hg, write_patch, tmp_path):
+    """`play --seconds S --record T`: the take's WAV is known too; refused before any sound card."""
+    path = write_patch(TONE)
+    proc = hg("play", path, "--seconds", "1e5", "--record", "t", cwd=tmp_path, timeout=60)
+    assert_patch_error(proc, "--record")
+    assert "a take's WAV holds at most 4.29 GB" in proc.stderr, proc.stderr
+    proc = hg("play", path, "--seconds", "1e9", "--record", "t", cwd=tmp_path, timeout=60)
+    assert_patch_error(proc, "--record")
+    assert sorted(os.listdir(tmp_path)) == ["p.yaml"]
+
+
 def test_the_probes_are_sized_too(hg, write_patch, tmp_path):
     path = write_patch(TONE.replace("  out: {type: audio_out, channels: 2}\n", "").split("connect:")[0] + "connect: []\n")
     proc = hg("run", path, "--seconds", "1e9", "--probe", "tone.out", "--probes", "p.npz", cwd=tmp_path, timeout=60)
