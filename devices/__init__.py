@@ -137,12 +137,14 @@ def check_choices(patch, choices):
                           f"(its devices: {', '.join(patch.devices) or 'none'})")
 
 
-def open_drivers(patch, choices=None, live_input=None, notes=None):
+def open_drivers(patch, choices=None, live_input=None, notes=None, running=None):
     """A Driver for each device entry of a patch (`choices`, name → a driver name or a Choice
     with settings, overrides the file), and one for each block fed from outside (audio_in: its
     file or — with `live_input` (play gives it) — a live input driver `live_input(block)`). A
-    device entry's `file` (a replay take) is relative to the patch. Notes (settings ignored for
-    another driver) are appended to `notes`, or printed on stderr."""
+    device entry's `file` (a replay take) is relative to the patch. `running`: drivers already
+    open (a reload keeps them) that a block fed from outside may play from (a controller's
+    hub). Notes (settings ignored for another driver) are appended to `notes`, or printed on
+    stderr."""
     choices = dict(choices or {})
     check_choices(patch, choices)
     kinds = kinds_of(patch)
@@ -166,7 +168,7 @@ def open_drivers(patch, choices=None, live_input=None, notes=None):
     for inst in patch.blocks.values():
         feeder = input_kind(inst.cls)
         if feeder is not None:
-            drivers[inst.name] = feeder.open(inst, base, live_input, drivers)
+            drivers[inst.name] = feeder.open(inst, base, live_input, {**(running or {}), **drivers})
     return drivers
 
 

@@ -1,7 +1,7 @@
 """`hapticgraph play --watch`: reload the patch when its file (or a plugin file) changes, keep the
 state of every unchanged block and the drivers of unchanged devices, and swap the new session in
 at a block boundary; a patch with errors is reported and the old one keeps playing."""
-import copy
+import dataclasses
 import os
 import sys
 import threading
@@ -77,10 +77,9 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
             keep[inst.name] = old_drivers[inst.name]
         else:
             changed_inputs[inst.name] = inst
-    view = copy.copy(new_patch)
-    view.devices = changed_devices
-    view.blocks = changed_inputs
-    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input)
+    view = dataclasses.replace(new_patch, devices=changed_devices, blocks=changed_inputs)   # a Patch is frozen
+    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input,
+                          running=keep)
     drivers = dict(keep)
     drivers.update(opened)
     unused = [d for name, d in old_drivers.items() if drivers.get(name) is not d]

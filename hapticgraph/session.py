@@ -279,12 +279,12 @@ class Session:
         return len(self._edits) + len(self._swaps)
 
     # -- swapping in an edited patch ----------------------------------------------------------------
-    def swap(self, patch, devices=None):
+    def swap(self, patch, devices=None, probes=None):
         """Compile `patch` (a Patch, or a path loaded with the session's overrides) now, and queue
         it for the next block boundary: the state of every block whose type, parameters and
         incoming connections did not change carries over, and the drivers of devices whose entry
-        did not change keep running. Returns a Swap. Raises PatchError, PlanError or DeviceError
-        (nothing changes then)."""
+        did not change keep running; `probes`, when given, replace the session's. Returns a Swap.
+        Raises PatchError, PlanError or DeviceError (nothing changes then)."""
         for pending in tuple(self._swaps):
             self.withdraw(pending)
         self.retire()
@@ -293,7 +293,8 @@ class Session:
         old = self._engine
         choices = self.choices if devices is None else device_choices(devices)
         drivers, opened, unused = reload_drivers(old.prog.patch, patch, old.prog.drivers, choices, self.live_input)
-        new = Engine(patch, self.probes, drivers, self.engine_name, blocksize=old.blocksize,
+        probes = self.probes if probes is None else tuple(probes)
+        new = Engine(patch, probes, drivers, self.engine_name, blocksize=old.blocksize,
                      runaway=self.runaway, editable=self.editable)
         carry, kept = carry_state(old.prog, new.prog)
         if old.started:
