@@ -103,6 +103,23 @@ def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devi
                    safety=safety, chunk=chunk, runaway=runaway)
 
 
+def sweep(spec_or_path, out, client=None, **options):
+    """Render every variant of a sweep file (or a loaded SweepSpec) on Dask into the folder `out`
+    (manifest.csv, audio/); `client` a dask.distributed Client, else a local cluster. Returns the
+    manifest's rows (a pandas DataFrame when pandas is installed). See hapticgraph.sweeps.sweep
+    for the options (workers, scheduler, scheduler_file, resume, limit, progress)."""
+    from .sweeps import sweep as _sweep
+    return _sweep(spec_or_path, out, client=client, **options)
+
+
+def fit(patch, target, axes, client=None, **options):
+    """Find the values of `axes` ({"block.param": (min, max)} or an axes file) whose render of
+    `patch` matches the recording `target`, on Dask; a FitResult (`.values`, `.distance`,
+    `.patch_path`, `.rows`). See hapticgraph.fitting.fit for the options."""
+    from .fitting import fit as _fit
+    return _fit(patch, target, axes, client=client, **options)
+
+
 __all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render", "Session",
-           "load", "check", "render", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
+           "load", "check", "render", "sweep", "fit", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
            "__version__"]
