@@ -274,6 +274,7 @@ class Block:
     states = ()      # State declarations, in order
     buffers = ()     # Buffer declarations, in order
     externals = ()   # External declarations, in order
+    notes = ""       # rules the block reference prints under the equation (what a table cannot say)
     derive = None
     output = None
     update = None
