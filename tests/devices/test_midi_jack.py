@@ -3,6 +3,7 @@ output port plays the patch's `{driver: midi, port: ...}` device; `hapticgraph d
 import os
 import subprocess
 import sys
+import threading
 import time
 import uuid
 
@@ -159,3 +160,42 @@ def test_live_notes_are_allocated_to_voices_as_from_a_file(keyboard, write_patch
     for chunk in (1, 100, 4096):
         r = hapticgraph.render(offline, len(rec) / 48000, probes=probes, chunk=chunk)
         assert np.array_equal(np.stack([r.probes[p] for p in probes], axis=1), rec[:, 1:5]), chunk
+
+
+# a live port opened and closed again and again while a keyboard floods it: the close must never
+# wait for the MIDI system's thread while that thread waits for Python (issue 21: a callback on
+# JACK's thread needed the GIL that close_port held); run apart, so a deadlock cannot hang pytest
+CYCLES = """
+import sys, time
+from hapticgraph.devices.midi import MidiHub
+hub = MidiHub("keys", {"port": "hg-keys", "api": "jack"})
+heard = 0
+for k in range(int(sys.argv[1])):
+    hub.start(48000)
+    time.sleep(0.02)
+    heard += len(hub.events(0, 64))
+    hub.stop()
+print(k + 1, heard)
+"""
+
+
+def test_closing_a_port_while_it_is_played_is_bounded(keyboard):
+    stop = threading.Event()
+
+    def flood():
+        for k in range(200_000):               # bounded in count, and by the event
+            if stop.is_set():
+                return
+            keyboard.send_message([0x90 if k % 2 == 0 else 0x80, 60 + k % 12, 100])
+            time.sleep(0.0002)
+    sender = threading.Thread(target=flood, daemon=True)
+    sender.start()
+    try:
+        proc = subprocess.run([sys.executable, "-c", CYCLES, "30"], capture_output=True, text=True, timeout=240,
+                              check=False)
+    finally:
+        stop.set()
+        sender.join(10)
+    assert proc.returncode == 0, proc.stderr
+    cycles, heard = map(int, proc.stdout.split())
+    assert cycles == 30 and heard > 0
