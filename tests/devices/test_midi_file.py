@@ -158,3 +158,25 @@ def test_same_sample_events_in_either_order_and_notes_by_channel(tmp_path, chunk
     assert velocity[20] == pytest.approx(50 / 127) and velocity[40] == pytest.approx(70 / 127)
     assert gate[60] == 1.0 and gate[61:].max() == 0.0
     assert r.probes["note.freq"][60] == pytest.approx(440 * 2 ** ((62 - 69) / 12))
+
+
+def test_a_device_that_never_stops_is_abandoned_with_one_line(song_patch, monkeypatch, capsys):
+    """Session.stop gives each device STOP_SECONDS; past it the device is left behind, named."""
+    import threading
+    import time
+
+    import hapticgraph.graph.engine as engine
+    from hapticgraph.devices import open_drivers
+    monkeypatch.setattr(engine, "STOP_SECONDS", 0.2)
+    patch = song_patch()
+    drivers = open_drivers(patch)
+    release = threading.Event()
+    monkeypatch.setattr(drivers["song"], "stop", lambda: release.wait(30))
+    session = engine.Session(patch, drivers=drivers, blocksize=64)
+    session.process(64)
+    began = time.monotonic()
+    session.stop()
+    took = time.monotonic() - began
+    release.set()
+    assert took < 5.0 and not session.started
+    assert capsys.readouterr().err.splitlines() == ["hapticgraph: device 'song' did not close within 0.2 s: abandoned"]
