@@ -64,9 +64,9 @@ def _jsonable(value):
     return value
 
 
-def take_header(session, channels, blocksize, kinds=None):
-    """The JSON header of a take of `session` (its Program's ext columns and forces)."""
-    prog, patch = session.prog, session.prog.patch
+def take_header(prog, channels, blocksize, kinds=None):
+    """The JSON header of a take of a running patch (its Program `prog`: ext columns and forces)."""
+    patch = prog.patch
     sig = patch_signature(patch)
     drivers, offset = {}, 0
     order = []
@@ -199,12 +199,11 @@ class Recorder:
     """Takes blocks from the audio callback into ring buffers (no allocation, no I/O there) and
     writes them to TAKE.hgrec and TAKE.wav from its own thread."""
 
-    def __init__(self, path, session, channels, blocksize, kinds=None, ring_seconds=4.0, flush_every=0.2,
+    def __init__(self, path, prog, channels, blocksize, kinds=None, ring_seconds=4.0, flush_every=0.2,
                  stream=None):
         self.path, self.wav_path = take_paths(path)
-        prog = session.prog
         self.layout = (list(prog.ext_columns), [d for d, _ in prog.device_records])
-        self.header = take_header(session, channels, blocksize, kinds)
+        self.header = take_header(prog, channels, blocksize, kinds)
         _want_columns(prog)
         self.nin, self.nforce = len(prog.ext_columns), len(prog.device_records)
         size = 1 << max(12, int(np.ceil(np.log2(max(1.0, ring_seconds * prog.rate)))))
@@ -269,9 +268,9 @@ class Recorder:
         self._ring(self.audio, self.aw, audio)
         self.aw += n
 
-    def session_changed(self, session):
-        """A reload swapped the session: keep recording inputs only if the layout is the same."""
-        prog = session.prog
+    def session_changed(self, prog):
+        """A reload swapped in another patch (its Program `prog`): keep recording inputs only if
+        the layout is the same."""
         if (list(prog.ext_columns), [d for d, _ in prog.device_records]) != self.layout:
             self.inputs_stopped = "a reload changed the patch's devices or inputs"
         else:

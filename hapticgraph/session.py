@@ -35,6 +35,7 @@ class Swap:
     def __init__(self, session, engine, carry, kept, opened, unused):
         self.session, self.engine, self.carry = session, engine, carry
         self.kept, self.opened, self.unused = sorted(kept), opened, unused
+        self.at = None              # the sample it began to play at
         self.applied = threading.Event()
 
     def wait(self, timeout=None):
@@ -322,7 +323,8 @@ class Session:
         old, new = self._engine, swap.engine
         for dst, src in swap.carry:
             np.copyto(dst, src)
-        new.t, new.started = old.t, old.started
+        new.t = swap.at = old.t
+        new.started = old.started
         self._engine = new
         self._cut = (0,)
         self._last = 0
