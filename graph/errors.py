@@ -87,3 +87,7 @@ def _names(names, most=20):
     names = list(names)
     shown = ", ".join(names[:most])
     return shown + (f", … ({len(names) - most} more)" if len(names) > most else "") if names else "none"
+
+
+# the same two under public names, for the layers above (the command line, the console)
+suggest, name_list = _suggest, _names

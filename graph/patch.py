@@ -235,7 +235,7 @@ def _apply_overrides(doc, overrides, registry, problems):
         target, sep, raw = text.partition("=")
         block, dot, param = target.strip().partition(".")
         if not sep or not dot or not block or not param:
-            problems.add(1, f"--set {text!r}: expected BLOCK.PARAM=VALUE")
+            problems.add(*_bare_set(text, block, blocks, registry))
             continue
         if not isinstance(blocks, LDict) or not isinstance(blocks.get(block), LDict):
             have = list(blocks) if isinstance(blocks, LDict) else []
@@ -258,6 +258,23 @@ def _apply_overrides(doc, overrides, registry, problems):
         if ok:
             entry[param] = value
             entry.lines[param] = line
+
+
+def _bare_set(text, block, blocks, registry):
+    """(line, message) of a --set that is not BLOCK.PARAM=VALUE: the block's parameters when it
+    names a block without one, else the block names with a did-you-mean."""
+    have = list(blocks) if isinstance(blocks, LDict) else []
+    entry = blocks.get(block) if isinstance(blocks, LDict) else None
+    cls = registry.types.get(entry.get("type")) if isinstance(entry, LDict) else None
+    if cls is not None:
+        public = [n for n, p in cls.params.items() if not p.internal]
+        return (blocks.lines.get(block, entry.line),
+                f"--set {text!r}: expected BLOCK.PARAM=VALUE; block {block!r} ({cls.type_name}) has the "
+                f"parameters: {_names(public)}")
+    if block and block.isidentifier() and block not in have:
+        return 1, (f"--set {text!r}: expected BLOCK.PARAM=VALUE; the patch has no block named "
+                   f"{block!r}{_suggest(block, have)}; its blocks: {_names(have)}")
+    return 1, f"--set {text!r}: expected BLOCK.PARAM=VALUE"
 
 
 def _connection_problem(text):

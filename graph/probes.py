@@ -1,8 +1,12 @@
 """Probes: `BLOCK.PORT` (an output, an input, a live parameter or a state) or `NAME[i, j].PORT`
 (a point of a fused group: for a lattice, a cell's position, velocity, or force — the sum of the
 forces wired into it), resolved to the IR node the kernel records."""
+import re
+
+from .errors import name_list, suggest
 from .ir import Sum
 
+_BARE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(\[[^\]]*\])?\s*")   # a block (or cell) without `.PORT`
 
 
 def resolve_probe(prog, probe):
@@ -11,7 +15,7 @@ def resolve_probe(prog, probe):
     from .program import PlanError
     end = Endpoint.parse(probe)
     if end is None:
-        raise PlanError(f"probe {probe!r}: {Endpoint.problem(probe)}")
+        raise PlanError(f"probe {probe!r}: {_bare_problem(prog, probe) or Endpoint.problem(probe)}")
     bp = prog.by_name.get(end.block)
     if bp is None:
         names = list(prog.by_name)
@@ -59,7 +63,31 @@ def _port(prog, bp, end, probe):
     for i, s in enumerate(bp.cls.states):
         if s.attr == port:
             return bp.state_nodes[i]
-    names = ([p.name for p in bp.inst.outputs + bp.inst.inputs] + [n for n, p in bp.cls.params.items() if p.live]
-             + [s.attr for s in bp.cls.states])
+    names = _probe_names(bp)
     raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
-                    f"{port!r}{_suggest(port, names)}; it has: {', '.join(dict.fromkeys(names)) or 'none'}")
+                    f"{port!r}{_suggest(port, names)}; it has: {', '.join(names) or 'none'}")
+
+
+def _probe_names(bp):
+    """What a probe of block plan `bp` can name: outputs, inputs, live parameters, states."""
+    return list(dict.fromkeys([p.name for p in bp.inst.outputs + bp.inst.inputs]
+                              + [n for n, p in bp.cls.params.items() if p.live] + [s.attr for s in bp.cls.states]))
+
+
+def _bare_problem(prog, probe):
+    """What to say of a probe naming a block (or a cell) without a port: the block's ports, or the
+    block names with a did-you-mean; None if it is not such a probe."""
+    m = _BARE.fullmatch(probe)
+    if m is None:
+        return None
+    block, index = m.groups()
+    bp = prog.by_name.get(block)
+    if bp is None:
+        return (f"no block named {block!r}{suggest(block, prog.by_name)}; its blocks: {name_list(prog.by_name)} "
+                f"(a probe is written BLOCK.PORT)")
+    gs = prog.group_of.get(block)
+    if gs is not None and (index is not None or gs.family.point_ports):
+        ports = ", ".join(gs.family.point_ports)
+        return f"a probe names a port: write {block}{index or '[i, ...]'}.PORT; its points have: {ports}"
+    return (f"a probe names a port: write {block}.PORT; block {block!r} ({bp.cls.type_name}) has: "
+            f"{', '.join(_probe_names(bp)) or 'none'}")

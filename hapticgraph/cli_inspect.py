@@ -5,7 +5,7 @@ import json
 import os
 import sys
 
-from .cli_common import UsageError
+from .cli_common import UsageError, check_output, input_files
 from .graph.errors import PatchError
 from .graph.patch import load
 from .graph.program import PlanError
@@ -83,9 +83,10 @@ def cmd_check(args):
 def cmd_graph(args):
     from .graph.export import to_dot, to_mermaid
     patch = load(args.patch)
+    out = check_output("-o", args.out, input_files(patch), "command") if args.out else None
     text = (to_dot if args.format == "dot" else to_mermaid)(patch)
-    if args.out:
-        with open(args.out, "w", encoding="utf-8") as f:
+    if out:
+        with open(out, "w", encoding="utf-8") as f:
             f.write(text)
     else:
         sys.stdout.write(text)
@@ -131,6 +132,7 @@ def cmd_plot(args):
         raise UsageError(f"--mode {args.mode}: modes are numbered from 1 (the lowest), as "
                          f"`hapticgraph modes` lists them")
     patch = load(args.patch, overrides=args.overrides)
+    check_output("-o", args.out, input_files(patch), "command")
     if args.mode is not None or args.lattice:
         return _plot_mode(args, patch, plot)
     return _plot_render(args, patch, plot)

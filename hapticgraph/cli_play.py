@@ -3,7 +3,7 @@
 import signal
 import sys
 
-from .cli_common import UsageError, audio_channels, device_choices
+from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files
 from .devices import DeviceError, audio, check_choices
 from .devices.kinds import input_kind
 from .devices.record import Recorder
@@ -22,6 +22,8 @@ def cmd_play(args):
     if args.replay and args.watch:
         raise UsageError("--replay and --watch do not go together")
     patch = load(args.patch, overrides=args.overrides)
+    if args.record:
+        _check_record(args, patch)
     try:
         check_choices(patch, choices)
     except DeviceError as exc:
@@ -45,6 +47,15 @@ def cmd_play(args):
     watcher = _start_watcher(args, player) if args.watch else None
     report = _run(args, patch, player, watcher)
     return _report(args, player, report)
+
+
+def _check_record(args, patch):
+    """--record TAKE writes TAKE.hgrec and TAKE.wav: neither may be a file this play reads (the
+    patch, a plugin, an audio_in file, the take --replay plays), checked before any device opens."""
+    from .devices.take import take_paths
+    inputs = input_files(patch, args.replay)
+    for path in take_paths(args.record):
+        check_output("--record", path, inputs, "play")
 
 
 def _check_options(args):

@@ -1,13 +1,12 @@
 """`hapticgraph run`: render a patch offline into an audio file and a probes file. Every output
 is checked before any work (it must not overwrite a file the run reads); what was rendered is
 written whatever stops the render (a signal, a safety stop, a full disk)."""
-import inspect
 import math
 import os
 import signal
 import sys
 
-from .cli_common import UsageError, audio_channels, device_choices
+from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files, same_file
 from .devices import DeviceError, open_drivers
 from .devices.files import FileSink, OutputError
 from .devices.wav import AudioFileError
@@ -60,12 +59,12 @@ def _open_sink(patch, args):
     stem = os.path.splitext(os.path.basename(args.patch))[0]
     out = args.out or f"{stem}.wav"
     channels = audio_channels(patch)
-    inputs = _input_files(patch, args.replay)
-    audio_path = _check_output("--out", out, inputs) if channels or args.out else None
+    inputs = input_files(patch, args.replay)
+    audio_path = check_output("--out", out, inputs) if channels or args.out else None
     probes_path = None
     if args.probe:
-        probes_path = _check_output("--probes", args.probes or os.path.splitext(out)[0] + ".npz", inputs)
-        if audio_path and channels and _same_file(os.path.abspath(probes_path), os.path.abspath(audio_path)):
+        probes_path = check_output("--probes", args.probes or os.path.splitext(out)[0] + ".npz", inputs)
+        if audio_path and channels and same_file(os.path.abspath(probes_path), os.path.abspath(audio_path)):
             raise UsageError(f"--probes {probes_path!r} and --out name the same file")
     if not channels and not args.probe:
         print(f"hapticgraph: {args.patch} has no audio_out block and no --probe was given; nothing written",
@@ -121,62 +120,6 @@ def _report(args, sink, streamed, problem, failure, written, errors):
               f"what was rendered is written ({held})", file=sys.stderr)
         return 1
     return 1 if errors else 0
-
-
-def _input_files(patch, replay=None):
-    """Every file a run reads: the patch, its plugin and block modules, audio_in files, takes."""
-    base = os.path.dirname(os.path.abspath(patch.file))
-    files = [patch.file]
-    plugins = patch.doc.get("plugins") if isinstance(patch.doc, dict) else None
-    files += [os.path.join(base, p) for p in plugins or () if isinstance(p, str) and p.endswith(".py")]
-    for inst in patch.blocks.values():
-        try:
-            files.append(inspect.getfile(inst.cls))
-        except (TypeError, OSError):
-            pass
-        files += _audio_file(inst, base)
-    files += [os.path.join(base, spec["file"]) for spec in patch.devices.values()
-              if isinstance(spec, dict) and isinstance(spec.get("file"), str)]
-    if replay:
-        from .devices.take import take_paths
-        files += [replay, *take_paths(replay)]
-    return files
-
-
-def _audio_file(inst, base):
-    """The files a block reads (its parameters that refer to a file beside the patch)."""
-    return [os.path.join(base, inst.values[n]) for n, p in inst.cls.params.items()
-            if p.refers == "file" and inst.values.get(n)]
-
-
-def _same_file(a, b):
-    if os.path.realpath(a) == os.path.realpath(b):
-        return True
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
-def _check_output(option, path, inputs):
-    """Refuse, before any work, an output that would overwrite an input or cannot be written;
-    returns the path to write (a symbolic link is written through)."""
-    for used in inputs:
-        if _same_file(path, used):
-            raise UsageError(f"{option} {path!r} is a file this run reads ({os.path.basename(used)}); "
-                             f"choose another name")
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise UsageError(f"{option} {path!r}: the folder {os.path.dirname(path) or '.'!r} does not exist")
-    if os.path.lexists(path):
-        if os.path.isdir(path):
-            raise UsageError(f"{option} {path!r} is a folder")
-        if not os.path.isfile(path):
-            raise UsageError(f"{option} {path!r} exists and is not a regular file (a device or a pipe)")
-        path = os.path.realpath(path)
-    if not os.access(os.path.dirname(os.path.abspath(path)), os.W_OK | os.X_OK):
-        raise UsageError(f"{option} {path!r}: the folder is not writable")
-    return path
 
 
 def _render_to(sink, patch, args, choices, replayed, stop):

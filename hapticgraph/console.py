@@ -11,6 +11,8 @@ import re
 import sys
 import threading
 
+from .graph.errors import name_list, suggest
+
 HELP = "commands: set BLOCK.PARAM VALUE | lock NAME[i, j] | unlock NAME[i, j] | cut NAME[i, j] | help"
 
 
@@ -22,10 +24,11 @@ def submit(line, session, done=None):
         return None
     verb, rest = words[0].lower(), (words[1] if len(words) > 1 else "")
     if verb == "set":
-        m = re.fullmatch(r"\s*([A-Za-z_]\w*)\.([A-Za-z_]\w*)\s*=?\s*(\S+)\s*", rest)
+        m = re.fullmatch(r"\s*([A-Za-z_]\w*)(?:\.([A-Za-z_]\w*))?\s*=?\s*(\S+)\s*", rest)
         if not m:
             raise ValueError("set BLOCK.PARAM VALUE")
         block, name, raw = m.groups()
+        _check_live(session.program, block, name)
         try:
             value = float(raw)
         except ValueError:
@@ -41,6 +44,21 @@ def submit(line, session, done=None):
     if verb == "help":
         raise ValueError(HELP)
     raise ValueError(f"unknown command {verb!r}; {HELP}")
+
+
+def _check_live(prog, block, name):
+    """ValueError naming what `set BLOCK.PARAM` may name when `block` is no block, `name` is
+    missing (a block without its parameter) or not one of the block's live parameters."""
+    bp = prog.by_name.get(block)
+    if bp is None:
+        raise ValueError(f"no block named {block!r}{suggest(block, prog.by_name)}; its blocks: "
+                         f"{name_list(prog.by_name)}")
+    live = [n for n, p in bp.cls.params.items() if p.live]
+    has = f"block {block!r} ({bp.cls.type_name}) has the live parameters: {name_list(live)}"
+    if name is None:
+        raise ValueError(f"set BLOCK.PARAM VALUE; {has}")
+    if name not in live:
+        raise ValueError(f"{block}.{name} is not a live parameter{suggest(name, live)}; {has}")
 
 
 class Console(threading.Thread):

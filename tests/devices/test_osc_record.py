@@ -52,12 +52,13 @@ def test_osc_take_rerenders_bit_for_bit(tmp_path, write_patch):
     client = SimpleUDPClient("127.0.0.1", port)
     try:
         k = 0
-        while proc.poll() is None:         # JACK paces play: keep sending until it has recorded and exited
+        deadline = time.monotonic() + 120   # play --seconds 2 under JACK: far past its end is a hang
+        while proc.poll() is None and time.monotonic() < deadline:   # JACK paces play: send until it exits
             client.send_message("/level", 1.0 + k % 3)
             client.send_message("/pitch", (k % 5) / 4)
             k += 1
             time.sleep(0.001)
-        _, err = proc.communicate(timeout=120)
+        _, err = proc.communicate(timeout=10)
     finally:
         proc.kill()
         jack.stop()

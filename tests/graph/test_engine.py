@@ -91,17 +91,23 @@ def _run_on_a_terminal(args):
     import fcntl
     import os
     import pty
+    import select
     import struct
     import subprocess
     import sys
     import termios
+    import time
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
     proc = subprocess.Popen([sys.executable, "-m", "hapticgraph", *map(str, args)], stderr=slave,
                             stdout=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
     os.close(slave)
     shown = b""
+    deadline = time.monotonic() + 300
     while True:
+        if not select.select([master], [], [], max(0.0, deadline - time.monotonic()))[0]:
+            proc.kill()                      # past the deadline: a hang fails the test instead of the suite
+            break
         try:
             chunk = os.read(master, 1 << 16)
         except OSError:                      # EIO: the child closed the terminal
