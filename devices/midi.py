@@ -17,6 +17,7 @@ import math
 import os
 from fractions import Fraction
 
+from .errors import DeviceError
 from .events import Hub, Tap
 
 DEFAULT_TEMPO = 500000      # µs per beat: 120 beats per minute, the Standard MIDI File default
@@ -24,7 +25,6 @@ APIS = {"auto": None, "jack": "UNIX_JACK", "alsa": "LINUX_ALSA"}
 
 
 def _error(message):
-    from . import DeviceError
     return DeviceError(message)
 
 

@@ -25,6 +25,7 @@ import numpy as np
 
 # ReplayDevice, replay_drivers, MAGIC, PREAMBLE, Take, header_bytes: re-exported (tests, benchmarks and
 # the driver kinds import them from here)
+from .recordable import Recordable
 from .replay import ReplayDevice, replay_drivers
 from .take import (
     FORCE_COLUMN,
@@ -44,7 +45,7 @@ from .take import (
 def _model_of(driver):
     """The name a take gives the model a driver substitutes (None: the patch's own block): its
     `take_type` when the model it runs is not the one that replays its columns."""
-    cls = getattr(driver, "take_type", driver.block_type)
+    cls = driver.take_type if isinstance(driver, Recordable) else driver.block_type
     if cls is None:
         return None
     for name, model in MODELS.items():
@@ -78,7 +79,8 @@ def take_header(prog, channels, blocksize, kinds=None):
         cols = [c for dev, c in prog.ext_columns if dev == device]
         drivers[device] = {"kind": (kinds or {}).get(device, type(d).__name__), "columns": cols,
                            "offset": offset, "model": _model_of(d),
-                           "block_values": _jsonable(getattr(d, "take_values", d.block_values)()),
+                           "block_values": _jsonable(d.take_values() if isinstance(d, Recordable)
+                                                     else d.block_values()),
                            "input": device in sig["inputs"]}
         bound = getattr(d, "max_force", None)      # a device's force bound (serial, HID): data, for replay
         if isinstance(bound, (int, float)) and 0 < bound < float("inf") and _model_of(d) is None:
@@ -101,7 +103,7 @@ def _want_columns(prog):
     """Tell the drivers whose inputs the kernel computes itself (a simulated hand's script) to
     fill their columns too, for the take."""
     for d in prog.drivers.values():
-        if hasattr(d, "recording"):
+        if isinstance(d, Recordable):
             d.recording = True
 
 

@@ -6,8 +6,11 @@ import os
 import sys
 import threading
 
+from ..graph.entries import driver_of
 from ..graph.errors import PatchError
-from .kinds import same as _same
+from .driver_kind import same
+from .opening import open_drivers
+from .table import input_kind, kinds_of
 
 
 def _incoming(patch):
@@ -38,7 +41,7 @@ def carry_state(old, new):
         was = old.patch.blocks.get(name)
         if was is None or was.cls is not new.patch.blocks[name].cls:
             continue
-        if not _same(_state_values(old, name), _state_values(new, name)):
+        if not same(_state_values(old, name), _state_values(new, name)):
             continue
         if into_old.get(name, []) != into_new.get(name, []):
             continue
@@ -56,9 +59,6 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
     """Drivers for `new_patch`: the running ones of devices (and audio inputs) whose driver kind
     keeps them (by default: the entry did not change); the others are opened. Returns (drivers,
     opened, unused old ones)."""
-    from ..graph.patch import driver_of
-    from . import open_drivers
-    from .kinds import input_kind, kinds_of
     kinds, old_kinds = kinds_of(new_patch), kinds_of(old_patch)
     keep, changed_devices, changed_inputs = {}, {}, {}
     for name, spec in new_patch.devices.items():
@@ -91,7 +91,7 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
 def plugin_files(patch):
     """The source files of the plugin block types a patch loaded (its `plugins:`)."""
     files = set()
-    registry = getattr(patch, "registry", None)
+    registry = patch.registry
     for name, cls in (registry.types.items() if registry is not None else ()):
         if not str(registry.origin.get(name, "")).startswith("plugin"):
             continue

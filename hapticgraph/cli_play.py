@@ -5,7 +5,7 @@ import sys
 
 from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files
 from .devices import DeviceError, audio, check_choices
-from .devices.kinds import input_kind
+from .devices.table import driver_origins, input_kind
 from .devices.record import Recorder
 from .devices.replay import replay_drivers
 from .graph.patch import load
@@ -200,7 +200,11 @@ def _report(args, player, report):
 
 
 def cmd_devices(args):
-    """Sound cards (PortAudio), MIDI ports and HID devices (hidapi)."""
+    """The drivers a patch may name (the table), sound cards (PortAudio), MIDI ports and HID
+    devices (hidapi)."""
+    print("Drivers (entry points hapticgraph.drivers):")
+    for name, origin in sorted(driver_origins().items()):
+        print(f"  {name:10s} {origin}")
     print("Sound cards (PortAudio):")
     try:
         cards = audio.sound_cards()
