@@ -284,14 +284,17 @@ class Session:
         """Compile `patch` (a Patch, or a path loaded with the session's overrides) now, and queue
         it for the next block boundary: the state of every block whose type, parameters and
         incoming connections did not change carries over, and the drivers of devices whose entry
-        did not change keep running. Returns a Swap. Raises PatchError, PlanError or DeviceError
-        (nothing changes then)."""
+        did not change keep running. Returns a Swap. Raises PatchError, PlanError, DeviceError, or
+        ValueError for another sample rate (nothing changes then)."""
         for pending in tuple(self._swaps):
             self.withdraw(pending)
         self.retire()
         if isinstance(patch, (str, os.PathLike)):
             patch = load(patch, overrides=self.overrides)
         old = self._engine
+        if float(patch.rate) != old.rate:
+            raise ValueError(f"{patch.name!r} runs at {float(patch.rate):g} Hz, the session at {old.rate:g} Hz: "
+                             "open a new session for another rate")
         choices = self.choices if devices is None else device_choices(devices)
         drivers, opened, unused = reload_drivers(old.prog.patch, patch, old.prog.drivers, choices, self.live_input)
         new = Engine(patch, self.probes, drivers, self.engine_name, blocksize=old.blocksize,

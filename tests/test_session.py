@@ -86,6 +86,14 @@ def test_swap_keeps_the_state_of_unchanged_blocks(write_patch):
     s.close()
 
 
+def test_a_swap_to_another_rate_is_refused(write_patch):
+    with hapticgraph.Session.open(write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml")) as s:
+        other = write_patch(SHEET.replace("GAIN", "1.0").replace("rate: 44100", "rate: 48000"), name="r.yaml")
+        with pytest.raises(ValueError, match="runs at 48000 Hz, the session at 44100 Hz"):
+            s.swap(other)
+        assert s.pending == 0
+
+
 def test_a_withdrawn_swap_changes_nothing(write_patch):
     a = write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml")
     s = hapticgraph.Session.open(a, blocksize=64)
