@@ -333,9 +333,9 @@ class Player:
             except Exception:  # noqa: BLE001 - a stream already finished
                 pass
             self.stream.close()
-            self.session.close()
-            if self.recorder is not None:
+            if self.recorder is not None:      # the take and the WAV complete before any device closes
                 self.recorder.close()
+            self.session.close()               # each device within its deadline (graph.engine.stop_driver)
             if self.probe_out is not None:
                 self.probe_out.close()
         if self.error is not None:

@@ -10,11 +10,20 @@ sample: the value before the event up to it, the new one from it on.
 Timing
     From a file (a Standard MIDI File): each event takes effect at the first sample at or after
     its time, computed exactly (hapticgraph.devices.midi), whatever the block size.
-    Live: the receiving thread stamps each event with the monotonic clock as it arrives. At a
-    block boundary (wall time `now`) the block of n samples stands for the wall-clock interval
-    (now − n/rate, now]: an event stamped s lands at sample n − 1 − ⌊(now − s)·rate⌋ (0 if
-    older). So the jitter of the block boundaries does not become jitter of the notes; the price
-    is a constant latency of one block (see benchmarks/midi_latency.py for measured figures).
+    Live: the reading thread stamps each event with the monotonic clock as it arrives. At a
+    block boundary (wall time `now`) the wall-clock interval (now − n/rate, now] stands for the
+    samples 1 … n of the block of n samples: an event stamped s lands at sample
+    n − ⌊(now − s)·rate⌋ (1 if older); one landing at n, the next block's first sample, is held
+    for that block. So the jitter of the block boundaries does not become jitter of the notes;
+    the price is a constant latency of one block and one sample (see benchmarks/midi_latency.py
+    for measured figures).
+
+Look-ahead
+    `peek(t)` gives the events of sample t, the first of the next block, before that block: the
+    voice allocator (hapticgraph.devices.voices) dips a restruck voice's gate at the sample
+    before its onset. A file knows its future; a live event is known a block ahead of its sample
+    at least (never placed at a block's first sample unless held from the block before), so
+    the same events give the same columns from a file, a port or a take.
 """
 import collections
 import math
@@ -39,13 +48,15 @@ class Hub(Driver):
         self.log = None
         self.rate = 44100.0
         self.lost = None
+        self.clock = time.monotonic       # the clock live events are stamped with
         self._block = None
         self._cache = []
         self._at = 0
+        self._next = []                   # live: (absolute sample, message) of the next block's first sample
 
     def start(self, rate):
         self.rate = float(rate)
-        self._block, self._cache, self._at = None, [], 0
+        self._block, self._cache, self._at, self._next = None, [], 0, []
         self.queue.clear()
 
     def tap(self, inst):
@@ -55,7 +66,7 @@ class Hub(Driver):
 
     def post(self, message, stamp=None):
         """A live event (from the receiving thread): thread-safe, never blocks."""
-        self.queue.append((time.monotonic() if stamp is None else stamp, message))
+        self.queue.append((self.clock() if stamp is None else stamp, message))
 
     def events(self, t0, n):
         """The events of samples t0 … t0+n−1 as [(index within the block, message)], in order."""
@@ -69,13 +80,31 @@ class Hub(Driver):
                 out.append((max(0, sample - t0), message))
                 self._at += 1
         else:
-            now, rate, queue = time.monotonic(), self.rate, self.queue
+            out = [(max(0, sample - t0), message) for sample, message in self._next]
+            self._next = []
+            now, rate, queue = self.clock(), self.rate, self.queue
             while queue and queue[0][0] <= now:
                 stamp, message = queue.popleft()
-                out.append((max(0, n - 1 - math.floor((now - stamp) * rate)), message))
+                i = min(n, max(1, n - math.floor((now - stamp) * rate)))
+                if i < n:
+                    out.append((i, message))
+                else:
+                    self._next.append((t0 + n, message))
         if self.log is not None:
             self.log.extend((t0 + i, m) for i, m in out)
         self._block, self._cache = (t0, n), out
+        return out
+
+    def peek(self, t):
+        """The messages of absolute sample t, the first of the block after the one `events` gave
+        last, in order (see Look-ahead)."""
+        if self.timed is None:
+            return [message for sample, message in self._next if sample == t]
+        out, k, timed = [], self._at, self.timed
+        while k < len(timed) and timed[k][0] <= t:
+            if timed[k][0] == t:
+                out.append(timed[k][1])
+            k += 1
         return out
 
 

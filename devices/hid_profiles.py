@@ -5,7 +5,7 @@ A profile is read into frozen dataclasses and checked as a whole; every problem 
 module finds, parses and checks profiles; the dataclasses they become, with the decoding of one
 field and the encoding of the force report, are in hapticgraph.devices.hid_reports; the
 transports in hapticgraph.devices.hid_transports; the reader thread in hapticgraph.devices.hid.
-The hid driver kind (hapticgraph.devices.kinds) hands the loader a device's ports from here.
+The hid driver kind (hapticgraph.devices.hid_kind) hands the loader a device's ports from here.
 
 Profile format (version 1)::
 
@@ -140,7 +140,7 @@ def check_field(chk, name, node, where, keys, default_size, length, line):
     bit = chk.integer(node, "bit", where, 0, 7, default=0)
     size = default_size
     if "size" in node:
-        size = node["size"]
+        size = int(node["size"]) if is_int(node["size"]) else node["size"]
         if not is_int(size) or not 1 <= size <= 64:
             chk.add(line_of(node, "size"), f"{where}.size: {size!r} is not a size in bits from 1 to 64")
             size = None

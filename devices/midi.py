@@ -15,13 +15,17 @@ keeps its starting value (a patch for live play rendered or checked without the 
 """
 import math
 import os
+import threading
 from fractions import Fraction
 
 from .errors import DeviceError
 from .events import Hub, Tap
+from .voices import CHANNEL_MESSAGES, Allocator, VoiceTap, resolve
 
 DEFAULT_TEMPO = 500000      # µs per beat: 120 beats per minute, the Standard MIDI File default
 APIS = {"auto": None, "jack": "UNIX_JACK", "alsa": "LINUX_ALSA"}
+POLL = 0.001                # seconds between two reads of an idle live port
+JOIN = 1.0                  # seconds a closing port waits for its reading thread
 
 
 def _error(message):
@@ -102,13 +106,23 @@ def port_lines():
 
 
 class PortReader:
-    """A live input port through python-rtmidi: the first whose name contains `port`."""
+    """A live input port through python-rtmidi (the first whose name contains `port`), read by a
+    thread of ours that polls the port's queue every POLL seconds.
+
+    Not rtmidi's callback: that runs Python on the MIDI system's own thread (JACK's process
+    thread, ALSA's input thread), which must take the GIL for it; and closing the port
+    (`close_port`, `delete`) holds the GIL while it waits for that thread to finish its cycle — so
+    a message arriving as the port closed deadlocked both (issue 21: `play` never exited under
+    JACK). Polled, the MIDI system's thread only fills rtmidi's queue and never waits for Python.
+    Each message is stamped with its arrival time: the previous stamp plus rtmidi's delta time
+    (the MIDI system's own clock), never later than now, so a burst read at once keeps its
+    spacing."""
 
     def __init__(self, hub, port, api="auto"):
         self.hub, self.port, self.api, self.midi_in = hub, port, api, None
+        self.thread, self.stopping = None, threading.Event()
 
     def open(self):
-        import mido
         import rtmidi
         seen = []
         for a in _rtmidi_apis(self.api):
@@ -122,26 +136,41 @@ class PortReader:
             if match is None:
                 midi_in.delete()
                 continue
-            parser = mido.Parser()
-
-            def received(event, _data=None, parser=parser):
-                parser.feed(event[0])
-                for message in parser:
-                    self.hub.post(message)
-            midi_in.set_callback(received)
             midi_in.ignore_types(sysex=True, timing=True, active_sense=True)
             midi_in.open_port(match, name="in")
-            self.midi_in = midi_in
+            self.midi_in, self.stopping = midi_in, threading.Event()
+            self.thread = threading.Thread(target=self._read, args=(midi_in, self.stopping), daemon=True,
+                                           name=f"midi in {self.hub.name}")
+            self.thread.start()
             return
         raise _error(f"device {self.hub.name!r}: no MIDI input port matching {self.port!r} "
                      f"(ports: {', '.join(seen) or 'none'}; `hapticgraph devices` lists them)")
 
+    def _read(self, midi_in, stopping):
+        import mido
+        parser, last = mido.Parser(), None
+        while not stopping.is_set():
+            got = midi_in.get_message()
+            if got is None:
+                stopping.wait(POLL)
+                continue
+            data, delta = got
+            now = self.hub.clock()
+            last = now if last is None else min(now, last + delta)
+            parser.feed(data)
+            for message in parser:
+                self.hub.post(message, last)
+
     def close(self):
+        """Stop reading (the thread first: nothing touches the port while it closes), then close."""
         midi_in, self.midi_in = self.midi_in, None
-        if midi_in is not None:
-            midi_in.cancel_callback()
-            midi_in.close_port()
-            midi_in.delete()
+        if midi_in is None:
+            return
+        self.stopping.set()
+        if self.thread is not None:
+            self.thread.join(JOIN)
+        midi_in.close_port()
+        midi_in.delete()
 
 
 class MidiHub(Hub):
@@ -178,7 +207,6 @@ class MidiHub(Hub):
 
     def allocator(self, channel, count):
         """The voice allocator of a polyphonic group (hapticgraph.devices.voices), shared."""
-        from .voices import Allocator
         key = (channel, count)
         if key not in self.allocators:
             self.allocators[key] = Allocator(self, channel, count)
@@ -191,8 +219,10 @@ def _channel_of(inst):
 
 
 class NoteTap(Tap):
-    """midi_note: last-note priority over the keys held (a release falls back to the newest key
-    still held, legato), pitch bend, velocity, channel and key pressure."""
+    """midi_note: last-note priority over the notes held, each a (channel, key) (a release falls
+    back to the newest note still held, legato), pitch bend of the sounding note's channel,
+    velocity, channel and key pressure. Events at one sample are resolved as the voice allocator
+    does (hapticgraph.devices.voices.resolve)."""
 
     columns = ("midi_gate", "midi_note", "midi_bend", "midi_velocity", "midi_pressure")
 
@@ -202,31 +232,57 @@ class NoteTap(Tap):
 
     def reset(self):
         self.row[:] = (0.0, 69.0, 0.0, 0.0, 0.0)
-        self.held = []
+        self.held = []                 # (channel, key), oldest first
+        self.ends = {}                 # (channel, key) -> the sample a note struck and released at one sample ends
+        self.bend, self.sounding = [0.0] * 16, None
 
-    def apply(self, m):
-        if not hasattr(m, "channel") or (self.channel is not None and m.channel != self.channel):
-            return
-        row, kind = self.row, m.type
-        if kind == "note_on" and m.velocity > 0:
-            if m.note in self.held:
-                self.held.remove(m.note)
-            self.held.append(m.note)
-            row[0], row[1], row[3] = 1.0, m.note, m.velocity / 127.0
-        elif kind in ("note_off", "note_on"):
-            if m.note in self.held:
-                self.held.remove(m.note)
-            if self.held:
-                row[1] = self.held[-1]
-            else:
-                row[0] = 0.0
-        elif kind == "pitchwheel":
-            row[2] = m.pitch / 8192.0
-        elif kind == "aftertouch" or (kind == "polytouch" and self.held and m.note == self.held[-1]):
-            row[4] = m.value / 127.0
-        elif kind == "control_change" and m.control in (120, 123):     # all sound / all notes off
-            self.held = []
+    def fill(self, t0, ext):
+        due = {}
+        for i, m in self.hub.events(t0, ext.shape[0]):
+            if m.type in CHANNEL_MESSAGES and (self.channel is None or m.channel == self.channel):
+                due.setdefault(i, []).append(m)
+        for end in self.ends.values():
+            due.setdefault(max(0, end - t0), [])
+        prev, row = 0, self.row
+        for i in sorted(k for k in due if k < ext.shape[0]):
+            ext[prev:i] = row
+            prev = i
+            self.at_sample(due[i], t0 + i)
+        ext[prev:] = row
+
+    def at_sample(self, messages, at):
+        row, held = self.row, self.held
+        for note in [note for note, end in self.ends.items() if end <= at]:
+            self._drop(note)
+        ended, struck, short = resolve(messages, set(held))
+        for note in ended:
+            self._drop(note)
+        for note, m in struck.items():
+            if note in held:
+                held.remove(note)
+            held.append(note)
+            row[3], self.sounding = m.velocity / 127.0, m.channel
+            self.ends.pop(note, None)
+            if note in short:
+                self.ends[note] = at + 1
+        for m in messages:
+            if m.type == "pitchwheel":
+                self.bend[m.channel] = m.pitch / 8192.0
+            elif m.type == "aftertouch" and m.channel == self.sounding or (
+                    m.type == "polytouch" and held and (m.channel, m.note) == held[-1]):
+                row[4] = m.value / 127.0
+        if held:
+            self.sounding = held[-1][0]
+            row[0], row[1] = 1.0, held[-1][1]
+        else:
             row[0] = 0.0
+        if self.sounding is not None:
+            row[2] = self.bend[self.sounding]
+
+    def _drop(self, note):
+        self.ends.pop(note, None)
+        if note in self.held:
+            self.held.remove(note)
 
 
 class ControlTap(Tap):
@@ -247,7 +303,6 @@ class ControlTap(Tap):
 def note_tap(hub, inst):
     """midi_note's tap: last-note priority, or voice `voice` of a group of `voices`."""
     if int(inst.values.get("voice", 0)) > 0:
-        from .voices import VoiceTap
         return VoiceTap(hub, inst, hub.allocator(_channel_of(inst), int(inst.values.get("voices", 1))))
     return NoteTap(hub, inst)
 

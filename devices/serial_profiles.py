@@ -31,6 +31,7 @@ Field offsets (`byte`) count from the first payload byte.
 import os
 from dataclasses import dataclass
 
+from ..blocks.numbers import is_whole, whole_number
 from ..graph.source import LDict, load_yaml
 from .hid_profiles import AXIS_KEYS, BUTTON_KEYS, FORCE_KEYS, check_field, check_fields, check_overlaps
 from .limits import FORCE_CEILING
@@ -151,8 +152,9 @@ def load_profile(path):
 
 def _framing(chk, node, where):
     sync = node.get("sync")
-    if not (isinstance(sync, list) and 1 <= len(sync) <= 4
-            and all(isinstance(b, int) and not isinstance(b, bool) and 0 <= b <= 255 for b in sync)):
+    if isinstance(sync, list) and all(is_whole(b) for b in sync):
+        sync = [whole_number(b) for b in sync]          # 165.0 is the byte 165
+    if not (isinstance(sync, list) and 1 <= len(sync) <= 4 and all(is_whole(b) and 0 <= b <= 255 for b in sync)):
         chk.add(_line(node, "sync"), f"{where}.sync: expected 1 to 4 byte values, e.g. [0xA5, 0x5A]")
         sync = [0]
     length = chk.integer(node, "length", where, 1, MAX_FRAME, required=True)

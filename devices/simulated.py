@@ -27,6 +27,9 @@ from .limits import SIMULATED_MAX_FORCE, force_limit
 from .recordable import Recordable
 from .script import script_data, script_point, script_time
 
+# SIMULATED_MAX_FORCE (50 N, devices/limits.py): the simulated device's bound on its max_force (see
+# the module's doc); limits.FORCE_CEILING (1000 N) is another thing: the most any profile or entry may state
+
 
 @helper
 def device_step(pos, vel, force, hand_x, hand_v, hand_stiffness, hand_damping, max_force, dt_over_m, dt):

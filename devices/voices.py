@@ -2,17 +2,28 @@
 `voices:` template) share one Allocator per device, channel and group size, which turns the
 device's events into N voices' columns once per block of samples, each event at its own sample.
 
+A note is owned by its channel and key: a voice sounds one note of one channel, and a note-off
+(or a note-on of velocity 0) ends that note only. Two channels striking one key take two voices.
 A note-on takes
-1. the voice already holding that key (a repeated key restrikes its own voice), else
+1. the voice holding the same note (channel and key) — a repeated note restrikes its own voice, else
 2. a free voice (never used, or released): the one released longest ago, so a released voice
    keeps ringing as long as it can, else
 3. the voice holding the oldest note (it is stolen).
+So with more voices than notes sounding nothing is stolen; with fewer, the oldest note is.
 A note-off drops its voice's gate and leaves the rest as it was (freq, velocity): the voice
-rings on, released, until a note-on reuses it. A free voice's gate rises at the note-on's
-sample; a stolen (or restruck) voice's gate falls at the note-on's sample and rises at the next
-one, so gate-triggered blocks (pluck, envelope) start again; its freq and velocity change at
-the note-on's sample. Pitch bend and channel pressure reach every voice; key pressure the voice
-holding the key; all-notes-off (CC 123) and all-sound-off (CC 120) release every voice.
+rings on, released, until a note-on reuses it.
+
+Every change happens at its event's sample. A voice whose gate is up when it takes a new note
+(restruck, stolen, or released and reused at that very sample) shows the new onset with a
+one-sample dip *before* it: its gate is 0 at the sample before the note-on and 1 from the
+note-on's sample, so gate-triggered blocks (pluck, envelope) start again exactly on time (the
+allocator looks one sample ahead; hapticgraph.devices.events). Events at one sample are resolved
+whatever their order in the file: a note-off there ends the note of its channel and key that
+began earlier, else one struck at that sample (which then sounds for that one sample); so a
+note-off and a note-on of one key at one sample leave the new note sounding.
+Pitch bend and channel pressure reach every voice of their channel; key pressure the voice
+holding the key; all-notes-off (CC 123) and all-sound-off (CC 120) release every note of their
+channel.
 """
 import numpy as np
 
@@ -20,6 +31,42 @@ from .events import Tap
 
 GATE, NOTE, BEND, VELOCITY, PRESSURE = range(5)
 ALL_OFF = (120, 123)
+CHANNEL_MESSAGES = frozenset(("note_on", "note_off", "polytouch", "control_change", "program_change",
+                              "aftertouch", "pitchwheel"))
+
+
+def is_note_on(m):
+    return m.type == "note_on" and m.velocity > 0
+
+
+def is_note_off(m):
+    return m.type == "note_off" or (m.type == "note_on" and m.velocity == 0)
+
+
+def resolve(messages, held):
+    """The note events of one sample, whatever their order: (notes ended that began before it,
+    {note: its note-on message} of the notes struck, notes struck that also end there), each
+    note a (channel, key); `held`: the notes sounding before the sample."""
+    ended, struck, short = [], {}, set()
+    for m in messages:
+        if is_note_on(m):
+            note = (m.channel, m.note)
+            struck[note] = m
+            short.discard(note)
+        elif is_note_off(m):
+            _end(m.channel, (m.note,), held, ended, struck, short)
+        elif m.type == "control_change" and m.control in ALL_OFF:
+            _end(m.channel, range(128), held, ended, struck, short)
+    return ended, struck, short
+
+
+def _end(channel, keys, held, ended, struck, short):
+    for key in keys:
+        note = (channel, key)
+        if note in held and note not in ended:
+            ended.append(note)
+        elif note in struck:
+            short.add(note)
 
 
 class Allocator:
@@ -33,81 +80,108 @@ class Allocator:
         n = self.count
         self.rows = np.zeros((n, 5))
         self.rows[:, NOTE] = 69.0
-        self.key = [None] * n          # the key each voice sounds, held or ringing
+        self.owner = [None] * n          # the (channel, key) each voice sounds, held or ringing
         self.held = [False] * n
         self.since = list(range(-n, 0))  # event count at the voice's note-on (held) or release (free)
         self.clock = 0
-        self.rearm = {}                # voice -> the absolute sample its gate rises again after a steal
-        self._block, self.cols = None, np.zeros((0, n, 5))
+        self.ends = {}                   # voice -> the absolute sample its one-sample note ends
+        self.bend, self.pressure = [0.0] * 16, [0.0] * 16
+        self.done = -1                   # the last absolute sample whose events are applied
+        self._block, self.cols = None, np.zeros((n, 0, 5))
 
     def voice_for(self, note):
-        """The voice a note-on of `note` takes (see the module's doc)."""
+        """The voice a note-on of `note` (channel, key) takes (see the module's doc)."""
         for v in range(self.count):
-            if self.held[v] and self.key[v] == note:
+            if self.held[v] and self.owner[v] == note:
                 return v
         free = [v for v in range(self.count) if not self.held[v]]
         return min(free or range(self.count), key=self.since.__getitem__)
 
-    def apply(self, m, at):
-        """One message at absolute sample `at`."""
+    def at_sample(self, messages, at):
+        """Apply every message of absolute sample `at` (and the ends due there); the voices whose
+        gate must dip at the sample before (their gate was up and they take a new note)."""
+        rows = self.rows
+        before = rows[:, GATE].copy()
+        for v in [v for v, end in self.ends.items() if end <= at]:
+            self._release(v)
+        held = {self.owner[v] for v in range(self.count) if self.held[v]}
+        ended, struck, short = resolve(messages, held)
+        for note in ended:
+            self._release(next(v for v in range(self.count) if self.held[v] and self.owner[v] == note))
+        dips = []
+        for note, m in struck.items():
+            v = self.voice_for(note)
+            rows[v] = (1.0, m.note, self.bend[m.channel], m.velocity / 127.0, 0.0)
+            self.owner[v], self.held[v], self.since[v] = note, True, self.clock
+            self.ends.pop(v, None)
+            self.clock += 1
+            if before[v] > 0.0:
+                dips.append(v)
+            if note in short:
+                self.ends[v] = at + 1
+        for m in messages:
+            self._control(m)
+        return dips
+
+    def _control(self, m):
+        """Pitch bend, channel and key pressure."""
         rows, kind = self.rows, m.type
-        if kind == "note_on" and m.velocity > 0:
-            v = self.voice_for(m.note)
-            rows[v, NOTE], rows[v, VELOCITY], rows[v, PRESSURE] = m.note, m.velocity / 127.0, 0.0
-            if rows[v, GATE] > 0.0 or v in self.rearm:
-                rows[v, GATE] = 0.0
-                self.rearm[v] = at + 1
-            else:
-                rows[v, GATE] = 1.0
-            self.key[v], self.held[v], self.since[v] = m.note, True, self.clock
-        elif kind in ("note_off", "note_on"):
-            for v in range(self.count):
-                if self.held[v] and self.key[v] == m.note:
-                    self._release(v)
-        elif kind == "pitchwheel":
-            rows[:, BEND] = m.pitch / 8192.0
+        if kind == "pitchwheel":
+            self.bend[m.channel] = m.pitch / 8192.0
+            rows[self._voices_of(m.channel), BEND] = self.bend[m.channel]
         elif kind == "aftertouch":
-            rows[:, PRESSURE] = m.value / 127.0
+            self.pressure[m.channel] = m.value / 127.0
+            rows[self._voices_of(m.channel), PRESSURE] = self.pressure[m.channel]
         elif kind == "polytouch":
             for v in range(self.count):
-                if self.held[v] and self.key[v] == m.note:
+                if self.held[v] and self.owner[v] == (m.channel, m.note):
                     rows[v, PRESSURE] = m.value / 127.0
-        elif kind == "control_change" and m.control in ALL_OFF:
-            for v in range(self.count):
-                if self.held[v]:
-                    self._release(v)
-        self.clock += 1
+
+    def _voices_of(self, channel):
+        return [v for v in range(self.count) if self.owner[v] is not None and self.owner[v][0] == channel]
 
     def _release(self, v):
         self.held[v], self.since[v] = False, self.clock
+        self.clock += 1
         self.rows[v, GATE] = 0.0
-        self.rearm.pop(v, None)
+        self.ends.pop(v, None)
 
     def _mine(self, m):
-        return hasattr(m, "channel") and (self.channel is None or m.channel == self.channel)
+        return m.type in CHANNEL_MESSAGES and (self.channel is None or m.channel == self.channel)
+
+    def _due(self, t0, n):
+        """{index within the block (0 … n, n: the next block's first sample, looked ahead): the
+        messages there} of the samples not applied yet, ends included."""
+        due = {}
+        for i, m in self.hub.events(t0, n):
+            if t0 + i > self.done and self._mine(m):
+                due.setdefault(i, []).append(m)
+        for m in self.hub.peek(t0 + n):
+            if self._mine(m):
+                due.setdefault(n, []).append(m)
+        for end in self.ends.values():
+            if t0 + n >= end > self.done:
+                due.setdefault(max(0, end - t0), [])
+        return due
 
     def block(self, t0, n):
-        """Every voice's columns for samples t0 … t0+n−1: an n × count × 5 array (computed once
-        per block, whichever voice asks first)."""
+        """Every voice's columns for samples t0 … t0+n−1: a count × n × 5 array, each voice's
+        rows contiguous (computed once per block, whichever voice asks first)."""
         if self._block == (t0, n):
             return self.cols
-        if self.cols.shape[0] != n:
-            self.cols = np.zeros((n, self.count, 5))
-        events = [(i, m) for i, m in self.hub.events(t0, n) if self._mine(m)]
-        cursor, e, rows = 0, 0, self.rows
-        while cursor < n:
-            for v in [v for v, at in self.rearm.items() if at - t0 <= cursor]:
-                rows[v, GATE] = 1.0
-                del self.rearm[v]
-            while e < len(events) and events[e][0] <= cursor:
-                self.apply(events[e][1], t0 + cursor)
-                e += 1
-            later = [at - t0 for at in self.rearm.values()] + ([events[e][0]] if e < len(events) else [])
-            nxt = min([n] + later)
-            self.cols[cursor:nxt] = rows
-            cursor = nxt
+        if self.cols.shape[1] != n:
+            self.cols = np.zeros((self.count, n, 5))
+        cols, cursor, due = self.cols, 0, self._due(t0, n)
+        for i in sorted(due):
+            cols[:, cursor:i] = self.rows[:, None, :]
+            cursor = i
+            for v in self.at_sample(due[i], t0 + i):
+                if i > 0:
+                    cols[v, i - 1, GATE] = 0.0
+            self.done = t0 + i
+        cols[:, cursor:n] = self.rows[:, None, :]
         self._block = (t0, n)
-        return self.cols
+        return cols
 
 
 class VoiceTap(Tap):
@@ -120,7 +194,7 @@ class VoiceTap(Tap):
         super().__init__(hub, inst)
 
     def fill(self, t0, ext):
-        ext[:] = self.allocator.block(t0, ext.shape[0])[:, self.voice, :]
+        ext[:] = self.allocator.block(t0, ext.shape[0])[self.voice]
 
 
-__all__ = ["Allocator", "VoiceTap"]
+__all__ = ["CHANNEL_MESSAGES", "Allocator", "VoiceTap", "is_note_off", "is_note_on", "resolve"]

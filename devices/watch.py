@@ -1,7 +1,7 @@
 """`hapticgraph play --watch`: reload the patch when its file (or a plugin file) changes, keep the
 state of every unchanged block and the drivers of unchanged devices, and swap the new session in
 at a block boundary; a patch with errors is reported and the old one keeps playing."""
-import copy
+import dataclasses
 import os
 import sys
 import threading
@@ -58,7 +58,7 @@ def carry_state(old, new):
 def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=None):
     """Drivers for `new_patch`: the running ones of devices (and audio inputs) whose driver kind
     keeps them (by default: the entry did not change); the others are opened. Returns (drivers,
-    opened, unused old ones)."""
+    opened, the unused old ones as (name, driver) pairs)."""
     kinds, old_kinds = kinds_of(new_patch), kinds_of(old_patch)
     keep, changed_devices, changed_inputs = {}, {}, {}
     for name, spec in new_patch.devices.items():
@@ -78,13 +78,11 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
             keep[inst.name] = old_drivers[inst.name]
         else:
             changed_inputs[inst.name] = inst
-    view = copy.copy(new_patch)
-    view.devices = changed_devices
-    view.blocks = changed_inputs
+    view = dataclasses.replace(new_patch, devices=changed_devices, blocks=changed_inputs)   # what to open
     opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input)
     drivers = dict(keep)
     drivers.update(opened)
-    unused = [d for name, d in old_drivers.items() if drivers.get(name) is not d]
+    unused = [(name, d) for name, d in old_drivers.items() if drivers.get(name) is not d]
     return drivers, opened, unused
 
 

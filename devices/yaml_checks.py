@@ -3,6 +3,7 @@ problem is added to a Collector as `FILE:LINE: where.key: message`, and the chec
 value or a default so the caller goes on and reports every problem at once."""
 import math
 
+from ..blocks.numbers import is_whole, whole_number
 from ..graph.source import LDict
 
 
@@ -11,7 +12,8 @@ def line_of(node, key):
 
 
 def is_int(v):
-    return isinstance(v, int) and not isinstance(v, bool)
+    """An integer as a profile means one: an int, or a float without fraction (2.0)."""
+    return is_whole(v)
 
 
 def is_num(v):
@@ -53,9 +55,10 @@ class Checker:
             if required:
                 self.add(node.line, f"{where}: missing {key!r}")
             return default
-        v = node[key]
-        if not is_int(v):
-            self.add(line_of(node, key), f"{where}.{key}: {v!r} is not a whole number")
+        try:
+            v = whole_number(node[key])       # 2.0 is 2; 2.5 is refused, named
+        except ValueError as exc:
+            self.add(line_of(node, key), f"{where}.{key}: {exc}")
             return default
         if not lo <= v <= hi:
             self.add(line_of(node, key), f"{where}.{key}: {v} is outside {lo} … {hi}")

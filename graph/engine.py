@@ -2,15 +2,17 @@
 as possible, and hand each block to a sink: `render` keeps arrays, `run` streams files
 (hapticgraph.devices.files.FileSink), so memory stays flat whatever the length."""
 import sys
+import threading
 import time
 
 import numpy as np
 
 from .interpreter import Interpreter
-from .kernel import CompiledKernel
+from .isolate import compiled
 from .program import Program
 
 ENGINES = ("compiled", "python")
+STOP_SECONDS = 5.0      # how long a device may take to stop before it is abandoned (Session.stop)
 
 
 class Driver:
@@ -51,6 +53,29 @@ class Driver:
         pass
 
 
+def stop_driver(name, driver, seconds=None):
+    """`driver.stop()` on a thread of its own, waited for `seconds` (STOP_SECONDS): no device can
+    keep a run from ending. Past that the device is abandoned — its thread left running, a daemon
+    — with one line on stderr naming it; False. An exception from `stop` is raised here."""
+    failed = []
+
+    def run():
+        try:
+            driver.stop()
+        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+            failed.append(exc)
+    seconds = STOP_SECONDS if seconds is None else seconds
+    thread = threading.Thread(target=run, daemon=True, name=f"stop {name}")
+    thread.start()
+    thread.join(seconds)
+    if thread.is_alive():
+        print(f"hapticgraph: device {name!r} did not close within {seconds:g} s: abandoned", file=sys.stderr)
+        return False
+    if failed:
+        raise failed[0]
+    return True
+
+
 class Render:
     """What `render` returns: `audio` (frames × channels), `probes` (name → array), `rate`."""
 
@@ -61,7 +86,7 @@ class Render:
 
 def make_runner(prog, engine="compiled"):
     if engine == "compiled":
-        return CompiledKernel(prog)
+        return compiled(prog)       # a plugin block numba cannot compile: PatchError at its line
     if engine == "python":
         return Interpreter(prog)
     raise ValueError(f"unknown engine {engine!r}; use one of {', '.join(ENGINES)}")
@@ -122,9 +147,10 @@ class Session:
             self.started = True
 
     def stop(self):
+        """Stop every driver, each within STOP_SECONDS (hapticgraph.graph.engine.stop_driver)."""
         if self.started:
-            for driver in self.drivers:
-                driver.stop()
+            for name, driver in self.prog.drivers.items():
+                stop_driver(name, driver)
             self.started = False
 
     def edit(self, fn, *args):
@@ -175,7 +201,10 @@ class Streamed:
 class ArraySink:
     """Keeps every block in arrays: the sink of `render`."""
 
+    started = False
+
     def start(self, rate, channels, probes, total):
+        self.started = True
         self.channels, self.probes, self.count = channels, list(probes), 0
         self.audio = np.zeros((total, channels))
         self.columns = np.zeros((len(self.probes), total))
@@ -305,7 +334,7 @@ def render(patch, seconds, probes=(), engine="compiled", chunk=1 << 14, progress
     try:
         streamed = stream(patch, seconds, sink, probes, engine, chunk, progress, drivers, safety, runaway)
     except (SafetyStop, KeyboardInterrupt) as exc:
-        if hasattr(sink, "audio"):
+        if sink.started:
             exc.result = sink.result(exc.streamed)
         raise
     return sink.result(streamed)

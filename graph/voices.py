@@ -23,24 +23,20 @@ later in a copy are reported once, at the template's line, under the template's 
 """
 import re
 
-import jsonschema
-
+from .explain import describe, whole_errors
+from .model import Endpoint
+from .patterns import CONNECTION, IDENT
 from .source import LDict, LList, line_of
-from .validate import _describe
 
 SECTION = "voices"
 DEFAULT_PREFIX = "v"     # v1_NAME, v2_NAME, … (a name prefix, not the port named v)
 MAX_VOICES = 128
-# blocks and connections the copies may add, checked before copying: a small file must not
-# become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
-MAX_COPIES = 20_000
 
 
 def voices_schema(block=None):
     """The section's JSON Schema; `block` (a block's schema) checks the template's blocks and
     the connections' syntax too (the published schema); without it, only the section's shape
     (the loader's first look: the copies are checked as blocks and connections of the patch)."""
-    from .schema import CONNECTION, IDENT
     connection = {"type": "string", "pattern": CONNECTION} if block is not None else {"type": "string"}
     return {
         "type": "object", "required": ["count", "blocks"], "additionalProperties": False,
@@ -54,6 +50,11 @@ def voices_schema(block=None):
             "connect": {"type": "array", "items": connection},
         },
     }
+
+
+# blocks and connections the copies may add, checked before copying: a small file must not
+# become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
+MAX_COPIES = 20_000
 
 
 def expand(doc, registry, problems):
@@ -92,10 +93,10 @@ def _read(doc, registry, problems):
     """(count, prefix, template blocks, template connections) of a well-formed section, else
     None with its problems reported."""
     section = doc[SECTION]
-    errors = list(jsonschema.Draft202012Validator(voices_schema()).iter_errors(section))
+    errors = list(whole_errors(voices_schema(), section))
     for err in errors:
         path = [SECTION] + list(err.absolute_path)
-        problems.add(line_of(doc, path), _describe(err, path, doc, registry))
+        problems.add(line_of(doc, path), describe(err, path, doc, registry))
     if errors:
         return None
     count, blocks = section["count"], section["blocks"]
@@ -122,7 +123,6 @@ def _numbered(spec, k, count, registry):
 
 def _connect(connect, count, prefix, names, out, problems):
     """Each template connection once per voice, its template ends renamed."""
-    from .patch import Endpoint
     for text, line in zip(connect, connect.lines):
         left, _, right = text.partition("->")
         ends = (Endpoint.parse(left), Endpoint.parse(right))

@@ -69,7 +69,7 @@ def cmd_check(args):
     if any(origin.get(inst.cls.type_name) != "built-in" for inst in patch.blocks.values()):
         # plugins are the only code a patch runs: each plugin block is compiled on its own here, so
         # a body numba cannot compile fails `check` at the plugin's line, not `run` in another block
-        from .graph.kernel import plugin_problems
+        from .graph.isolate import plugin_problems
         problems = plugin_problems(patch)
         if problems:
             raise PatchError(problems)
@@ -96,11 +96,14 @@ def cmd_graph(args):
 def cmd_modes(args):
     """The lowest modes of each network: K φ = ω² M φ (locked cells removed, damping ignored),
     sounding at f = (fs/π)·asin(ω/(2 fs)) under the half-step scheme; rigid modes print as 0 Hz."""
-    from .graph.modes import network_modes
+    from .graph.modes import BudgetError, network_modes
     if args.count < 1:
         raise UsageError("--count must be at least 1")
     patch = load(args.patch, overrides=args.overrides)
-    nets = network_modes(patch, args.count)
+    try:
+        nets = network_modes(patch, args.count)
+    except BudgetError as exc:            # the count past the memory budget: the largest that fits
+        raise UsageError(f"--count {args.count}: {exc}") from None
     if args.json:
         print(json.dumps({"patch": args.patch, "rate": patch.rate, "networks": [m.as_dict() for m in nets]},
                          indent=2))

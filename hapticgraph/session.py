@@ -21,8 +21,9 @@ from .blocks.network import parse_ref
 from .devices import Choice, open_drivers, parse_choice
 from .devices.watch import carry_state, reload_drivers
 from .graph.engine import Session as Engine
+from .graph.engine import stop_driver
 from .graph.patch import load
-from .graph.program import PlanError
+from .graph.errors import PlanError
 
 CELL_EDITS = ("lock", "unlock", "cut")
 
@@ -313,14 +314,16 @@ class Session:
             self._swaps.remove(swap)
         except ValueError:
             return False
-        for driver in swap.opened.values():
-            driver.stop()
+        for name, driver in swap.opened.items():
+            stop_driver(name, driver)
         return True
 
     def retire(self):
-        """Stop the drivers that applied swaps no longer use (never from the audio thread)."""
+        """Stop the drivers that applied swaps no longer use, each within its deadline
+        (graph.engine.stop_driver; never from the audio thread)."""
         while self._retired:
-            self._retired.popleft().stop()
+            name, driver = self._retired.popleft()
+            stop_driver(name, driver)
 
     def _switch(self, swap):
         old, new = self._engine, swap.engine
@@ -331,7 +334,7 @@ class Session:
         self._engine = new
         self._cut = (0,)
         self._last = 0
-        self._retired.extend(swap.unused)
+        self._retired.extend(swap.unused)           # (name, driver) pairs
         self.swaps += 1
         swap.applied.set()
 

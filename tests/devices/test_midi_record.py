@@ -89,21 +89,26 @@ def _messages(k):
             [0x80, key, 0]] + ([[0x80, other, 0]] if k % 3 == 0 else [])
 
 
-def _play_and_send(path, take, out, env):
-    proc = subprocess.Popen([sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "2",
-                             "--blocksize", "128",
-                             "--audio-device", "system", "--record", take], env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+DEADLINE = 90.0      # seconds a 2-second play may take, start-up and compile included, under load
+
+
+def _play_and_send(path, take, out, env, command=None):
+    proc = subprocess.Popen(command or [sys.executable, "-m", "hapticgraph", "play", path, "--seconds", "2",
+                                        "--blocksize", "128", "--audio-device", "system", "--record", take],
+                            env=env, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + DEADLINE
     try:
         k = 0
         while proc.poll() is None:         # JACK paces play: keep sending until it has recorded and exited
+            assert time.monotonic() < deadline, f"play did not exit within {DEADLINE:g} s"
             for message in _messages(k):
                 out.send_message(message)
             k += 1
             time.sleep(0.005)
-        _, err = proc.communicate(timeout=120)
+        _, err = proc.communicate(timeout=30)
     finally:
         proc.kill()
+        proc.wait(timeout=30)
     return proc.returncode, err
 
 
@@ -142,3 +147,34 @@ def test_live_midi_take_rerenders_bit_for_bit(tmp_path, write_patch, keyboard, t
         assert np.array_equal(t2.data, t.data)
         _, heard2 = wavfile.read(tmp_path / "again.wav")
         assert np.array_equal(heard2.view(np.uint32), heard.view(np.uint32))
+
+
+# play whose MIDI port never finishes closing (PortReader.close blocks for good): the device is
+# abandoned after its deadline with one line naming it, play exits 0, the take and the WAV whole
+STUCK = """
+import sys, threading
+import hapticgraph.graph.engine as engine
+from hapticgraph.cli import main
+from hapticgraph.devices.midi import PortReader
+engine.STOP_SECONDS = 1.0
+PortReader.close = lambda self: threading.Event().wait()
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_device_that_never_closes_is_abandoned_and_the_take_kept(tmp_path, write_patch, keyboard):
+    out, env = keyboard
+    path = write_patch(MONO)
+    take = tmp_path / "take"
+    began = time.monotonic()
+    code, err = _play_and_send(path, take, out, env, [sys.executable, "-c", STUCK, "play", str(path), "--seconds",
+                                                      "1", "--blocksize", "128", "--audio-device", "system",
+                                                      "--record", str(take)])
+    assert code == 0, err
+    lines = [line for line in err.splitlines() if "abandoned" in line]
+    assert lines == ["hapticgraph: device 'keys' did not close within 1 s: abandoned"], err
+    assert time.monotonic() - began < DEADLINE
+    t = Take(f"{take}.hgrec")
+    rate, heard = wavfile.read(f"{take}.wav")
+    assert rate == 48000 and len(heard) >= 48000 and t.frames >= 48000
+    assert len(np.unique(t.inputs[:, t.header["drivers"]["cc"]["offset"]])) > 3

@@ -60,12 +60,11 @@ def test_each_note_starts_on_its_voice_at_its_sample(render):
         s = sample(tick)
         gate, hz, pick = p[f"v{k}_note.gate"], p[f"v{k}_note.freq"], p[f"v{k}_pick.out"]
         assert hz[s] == freq(key) and hz[s - 1] != freq(key), (tick, key)
-        if (tick, key) in STOLEN:        # the gate falls at the note-on's sample, rises at the next
-            assert (gate[s - 1], gate[s], gate[s + 1]) == (1.0, 0.0, 1.0)
-            start = s + 2
+        if (tick, key) in STOLEN:        # the gate dips at the sample before the note-on, rises at it
+            assert (gate[s - 2], gate[s - 1], gate[s]) == (1.0, 0.0, 1.0)
         else:
             assert (gate[s - 1], gate[s]) == (0.0, 1.0), (tick, key)
-            start = s + 1                # pluck starts the sample after its trigger rises
+        start = s + 1                    # pluck starts the sample after its trigger rises, stolen or not
         assert pick[start - 1] == 0.0 and pick[start] > 0.0, (tick, key)
     for k in range(1, 7):               # the first sound of each string: the burst, one loop later
         first = min(sample(t) for (t, _), v in VOICE.items() if v == k)

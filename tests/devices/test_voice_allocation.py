@@ -18,6 +18,9 @@ class Song:
     def events(self, t0, n):
         return [(s - t0, m) for s, m in self.events_at if t0 <= s < t0 + n]
 
+    def peek(self, t):
+        return [m for s, m in self.events_at if s == t]
+
 
 def on(key, velocity=100, channel=0):
     return mido.Message("note_on", note=key, velocity=velocity, channel=channel)
@@ -30,7 +33,8 @@ def off(key, channel=0):
 def columns(events, count=3, n=200, block=64, channel=None):
     """n samples × count voices × 5 columns, computed block by block."""
     alloc = Allocator(Song(events), channel, count)
-    return np.concatenate([alloc.block(t0, min(block, n - t0)).copy() for t0 in range(0, n, block)])
+    return np.concatenate([alloc.block(t0, min(block, n - t0)).transpose(1, 0, 2).copy()
+                           for t0 in range(0, n, block)])
 
 
 def test_free_voice_first_never_used_then_released_longest_ago():
@@ -45,12 +49,12 @@ def test_free_voice_first_never_used_then_released_longest_ago():
 
 def test_steal_the_oldest_note():
     c = columns([(10, on(60)), (11, on(64)), (12, on(67)), (100, on(72)), (150, on(74))])
-    # voice 1 held the oldest note: at sample 100 its freq changes and its gate dips for one sample
+    # voice 1 held the oldest note: at sample 100 its freq changes; its gate dips at the sample before
     assert (c[99, 0, NOTE], c[100, 0, NOTE]) == (60, 72)
-    assert list(c[98:103, 0, GATE]) == [1.0, 1.0, 0.0, 1.0, 1.0]
+    assert list(c[98:103, 0, GATE]) == [1.0, 0.0, 1.0, 1.0, 1.0]
     assert c[100, 0, VELOCITY] == 100 / 127
     assert (c[149, 1, NOTE], c[150, 1, NOTE]) == (64, 74)     # then voice 2 (64), the next oldest
-    assert list(c[149:152, 1, GATE]) == [1.0, 0.0, 1.0]
+    assert list(c[148:151, 1, GATE]) == [1.0, 0.0, 1.0]
     assert np.all(c[:, 2, GATE][12:] == 1.0) and np.all(c[12:, 2, NOTE] == 67)   # voice 3 untouched
 
 
@@ -67,27 +71,36 @@ def test_a_released_voice_rings_on_until_reused():
 def test_a_repeated_key_restrikes_its_own_voice_and_a_stale_note_off_is_ignored():
     c = columns([(10, on(60)), (20, on(64)), (30, on(60)), (40, on(67)), (41, on(69)), (60, off(60)),
                  (70, off(64))], count=3)
-    assert list(c[29:32, 0, GATE]) == [1.0, 0.0, 1.0] and c[30, 0, NOTE] == 60
+    assert list(c[28:31, 0, GATE]) == [1.0, 0.0, 1.0] and c[30, 0, NOTE] == 60
     # 69 stole voice 2 (64, now the oldest); 64's note-off then finds no voice and changes nothing
     assert c[41, 1, NOTE] == 69 and np.all(c[42:, 1, GATE] == 1.0)
     assert np.all(c[60:, 0, GATE] == 0.0)
 
 
-def test_steal_at_a_block_boundary_rises_at_the_next_block():
-    c = columns([(0, on(60)), (63, on(62))], count=1, n=128, block=64)
-    assert list(c[62:66, 0, GATE]) == [1.0, 0.0, 1.0, 1.0] and c[63, 0, NOTE] == 62
+@pytest.mark.parametrize("at", [63, 64, 65])
+def test_steal_at_a_block_boundary_dips_before_its_sample(at):
+    """The dip before an onset at a block's first sample falls in the block before (look-ahead)."""
+    c = columns([(0, on(60)), (at, on(62))], count=1, n=128, block=64)
+    assert list(c[at - 2:at + 2, 0, GATE]) == [1.0, 0.0, 1.0, 1.0]
+    assert c[at - 1, 0, NOTE] == 60 and c[at, 0, NOTE] == 62
 
 
-def test_bend_pressure_channel_and_all_notes_off():
+def test_bend_pressure_and_all_notes_off_reach_their_channel_only():
     events = [(5, on(60)), (6, on(64, channel=2)), (10, mido.Message("pitchwheel", pitch=4096)),
               (12, mido.Message("polytouch", note=60, value=127)),
+              (13, mido.Message("polytouch", note=64, value=127)),       # channel 1 holds no 64
               (14, mido.Message("aftertouch", value=0)),
+              (16, mido.Message("aftertouch", value=127, channel=2)),
+              (18, mido.Message("pitchwheel", pitch=-8192, channel=3)), (19, on(67, channel=3)),
               (20, mido.Message("control_change", control=123, value=0))]
-    c = columns(events, count=2)
-    assert np.all(c[10:, :, BEND] == 0.5) and c[12, 0, PRESSURE] == 1.0 and c[12, 1, PRESSURE] == 0.0
-    assert c[14, 0, PRESSURE] == 0.0 and np.all(c[20:, :, GATE] == 0.0) and c[19, 1, GATE] == 1.0
+    c = columns(events, count=3)
+    assert np.all(c[10:, 0, BEND] == 0.5) and np.all(c[:, 1, BEND] == 0.0)   # channel 1's bend: its voice only
+    assert c[12, 0, PRESSURE] == 1.0 and c[13, 1, PRESSURE] == 0.0 and c[14, 0, PRESSURE] == 0.0
+    assert c[16, 1, PRESSURE] == 1.0 and c[16, 0, PRESSURE] == 0.0
+    assert c[19, 2, BEND] == -1.0                       # a note takes its channel's bend at its onset
+    assert np.all(c[20:, 0, GATE] == 0.0) and np.all(c[20:, 1:, GATE] == 1.0)   # CC 123 of channel 1
     only = columns(events, count=2, channel=2)
-    assert only[6, 0, NOTE] == 64 and np.all(only[:, 1, GATE] == 0.0)
+    assert only[6, 0, NOTE] == 64 and np.all(only[:, 1, GATE] == 0.0) and np.all(only[:, 0, BEND] == 0.0)
 
 
 @pytest.mark.parametrize("chunk", [1, 64, 1000])
@@ -115,6 +128,7 @@ def test_note_ons_at_their_exact_samples_in_a_patch(write_patch, tmp_path, chunk
     r = hapticgraph.render(patch, 0.005, probes=probes, chunk=chunk)
     gate = np.stack([r.probes[f"key{k}_note.gate"] for k in (1, 2, 3)], axis=1)
     assert list(gate[99]) == [0, 0, 0] and list(gate[100]) == [1, 0, 0] and list(gate[102]) == [1, 1, 1]
-    assert list(gate[150]) == [0, 1, 1] and list(gate[151]) == [1, 0, 1]       # 72 steals voice 1
+    assert list(gate[149]) == [0, 1, 1] and list(gate[150]) == [1, 1, 1]       # 72 steals voice 1: dip before
+    assert list(gate[151]) == [1, 0, 1]                                         # 64 released
     assert list(gate[199]) == [1, 1, 1] and r.probes["key2_note.freq"][199] == pytest.approx(440 * 2 ** (5 / 12))
     np.testing.assert_array_equal(r.audio[:, 0], gate.sum(axis=1))             # the voices' gates sum
