@@ -82,9 +82,15 @@ class Session:
         elif overrides:
             raise ValueError("overrides apply to a patch file; give its path")
         choices = device_choices(devices)
-        if drivers is None:
+        opened = drivers is None
+        if opened:
             drivers = open_drivers(patch, choices, live_input=live_input)
-        return cls(patch, drivers, probes, blocksize, engine, editable, runaway, overrides, choices, live_input)
+        try:
+            return cls(patch, drivers, probes, blocksize, engine, editable, runaway, overrides, choices, live_input)
+        except BaseException:
+            for name, driver in drivers.items() if opened else ():
+                stop_driver(name, driver)         # the devices opened for a session that never ran
+            raise
 
     # -- facts -----------------------------------------------------------------------------------
     @property

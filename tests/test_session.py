@@ -113,5 +113,7 @@ def test_devices_and_their_columns(patches_dir):
         assert "arm" in s.drivers
     with pytest.raises(hapticgraph.DeviceError, match="unknown setting"):
         hapticgraph.Session.open(patches_dir / "fig7_bowed_string.yaml", devices={"arm": "simulated,weight=1"})
+    with pytest.raises(hapticgraph.PlanError, match="loop.nope"):
+        hapticgraph.Session.open(patches_dir / "karplus_strong.yaml", probes=["loop.nope"])
     with pytest.raises(ValueError, match="overrides apply to a patch file"):
         hapticgraph.Session.open(hapticgraph.load(patches_dir / "karplus_strong.yaml"), overrides=["loop.length=3"])
