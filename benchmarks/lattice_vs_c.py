@@ -351,7 +351,7 @@ def setup(kind, folder):
     net = plan.group
     comp = {c.name: c for c in net.components}
     exc_flat = next(iter(plan.forces))
-    mic_flat = prog.records[0][1].terms[0].index           # the recorded cell: Sum of one ArrayItem
+    mic_flat = prog.records[0][1].terms[0].index           # the recorded cell: Total of one ArrayItem
     width = max(1, int(round(PLUCK["duration"] * RATE)))
     first = net.components[0]
     rows, cols = (first.shape + (1,))[:2] if len(first.shape) >= 1 else (1, 1)

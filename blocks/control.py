@@ -56,6 +56,8 @@ class Scale(Block, name="scale"):
         if p.curve == "exponential" and not p.out_range[0] * p.out_range[1] > 0.0:
             yield "out_range", "an exponential curve needs both ends of out_range non-zero and of one sign"
 
+    structure = ("expo", "clipped")     # the curve and the clip are choices; the ranges are data
+
     @staticmethod
     def derive(p, fs):
         expo = p.curve == "exponential"

@@ -61,6 +61,8 @@ class MidiCC(Block, name="midi_cc"):
         if p.curve == "exponential" and not p.min * p.max > 0.0:
             yield "curve", "an exponential curve needs min and max non-zero and of one sign"
 
+    structure = ("expo",)      # the curve is a choice; the range and the smoothing are data
+
     @staticmethod
     def derive(p, fs):
         expo = p.curve == "exponential"

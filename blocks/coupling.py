@@ -255,6 +255,8 @@ class Bow(Block, name="bow"):
         if not p.table_range[1] > p.table_range[0]:
             yield "table_range", "table_range must be [low, high] with low < high"
 
+    structure = ("use_table",)     # a table or the curve; the table itself is data
+
     @staticmethod
     def derive(p, fs):
         n = len(p.table)

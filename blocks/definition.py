@@ -10,6 +10,8 @@ import linecache
 import re
 import textwrap
 
+import numpy as np
+
 
 RESERVED = ("t", "fs")
 
@@ -160,10 +162,35 @@ def _check_derive(cls, fail, internal):
         bad = [c for c in coefs if not isinstance(c, str) or not c.isidentifier()]
         if bad:
             fail(f"derive must return a dict with identifier keys, got {bad}")
+        _check_structure(cls, fail)
         clash = set(coefs) & (set(internal) | set(RESERVED))
         if clash:
             fail(f"coefficient(s) {sorted(clash)} clash with other names")
+    if cls.derive is None and cls.structure:
+        fail("declares structure but no derive()")
     return coefs
+
+
+def _is_number(v):
+    return isinstance(v, (bool, int, float, np.bool_, np.integer, np.floating))
+
+
+def _check_structure(cls, fail):
+    """`structure` names values derive returns; every other value is data: a number or a
+    sequence of numbers (a str or None can only be structure)."""
+    if isinstance(cls.structure, str) or not all(isinstance(n, str) for n in cls.structure):
+        fail("structure must be a tuple of the names of derive's values")
+    cls.structure = frozenset(cls.structure)
+    derived = cls.derive(cls.param_tuple()(**cls.default_params()), 44100.0)
+    unknown = cls.structure - set(derived)
+    if unknown:
+        fail(f"structure names {sorted(unknown)}, which derive does not return")
+    for k, v in derived.items():
+        if k in cls.structure:
+            continue
+        if not (_is_number(v) or (isinstance(v, (list, tuple, np.ndarray)) and all(_is_number(x) for x in v))):
+            fail(f"derive's value {k!r} ({type(v).__name__}) is not a number or a list of numbers: "
+                 "data must be; name it in `structure` if it is a flag or a choice")
 
 
 def _check_returns(cls, fail):

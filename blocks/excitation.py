@@ -65,6 +65,8 @@ class Wavetable(Block, name="wavetable"):
     bandlimited = Param(True, doc="PolyBLEP on the square and sawtooth steps; the triangle is never corrected")
     ph = State(lambda p, fs: p.phase)
 
+    structure = ("code", "blep")       # the shape and band-limiting are choices
+
     @staticmethod
     def derive(p, fs):
         return {"code": ("sine", "square", "triangle", "sawtooth").index(p.shape),

@@ -15,6 +15,7 @@ class Delay(Block, name="delay"):
                           doc="linear: (1−f)·in[n−N] + f·in[n−N−1]; allpass: Thiran, flat magnitude")
     line = Buffer(lambda p, fs: int(math.ceil(p.length)) + 2)
     y1 = State(0.0)
+    structure = ("whole",)     # a whole-number length folds the interpolation away; n, c0, c1, a are data
 
     @classmethod
     def check(cls, p, fs):
@@ -36,10 +37,10 @@ class Delay(Block, name="delay"):
     @staticmethod
     def output(line, line_mask, t, n, c0, c1, a, y1, whole):
         if whole:
-            # a whole-number length: `whole` is a flag, part of the kernel's structure, so this
-            # branch folds away at compile time (strict IEEE arithmetic could not drop the
-            # `0.0 * x` terms by itself); the length itself is data
-            return c0 * line[(t - n) & line_mask]
+            # a whole-number length: `whole` is structure (declared), so this branch folds away
+            # at compile time (strict IEEE arithmetic could not drop the `0.0 * x` terms by
+            # itself); the length itself is data, and c0 is then exactly 1.0 (1.0·x is x)
+            return line[(t - n) & line_mask]
         return c0 * line[(t - n) & line_mask] + c1 * line[(t - n - 1) & line_mask] - a * y1
 
     @staticmethod

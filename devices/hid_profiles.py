@@ -60,7 +60,8 @@ IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # used with fullmatch: a name is
 RESERVED = ("t", *(d.name for d in Haptic.outputs + Haptic.inputs), *Haptic.params,
             *(e.attr for e in Haptic.externals), "estimate")
 MAX_REPORT = 4096        # bytes; USB full speed interrupt reports are ≤ 64, high speed ≤ 1024
-MAX_FORCE = 1000.0       # N: no profile may state more (the patch schema's bound on max_force)
+MAX_FORCE = 1000.0       # N: no profile or device entry may state more (the patch schema's bound on
+                         # max_force); the simulated device's own bound is kinds.SIMULATED_MAX_FORCE (50 N)
 
 TOP_KEYS = ("hid_profile", "name", "description", "vendor_id", "product_id", "max_force", "input", "output")
 INPUT_KEYS = ("report_id", "length", "interval", "timeout", "position", "velocity", "velocity_cutoff",

@@ -12,7 +12,7 @@ evaluated inside the kernel too (ScriptedHaptic): its keyframes reach the kernel
 sent, and another script re-uses the compiled kernel. A take records the hand's trajectory as
 columns (SimulatedHaptic reads them on replay), which the driver fills only while recording.
 
-Its `max_force` (default 4 N) is at most MAX_FORCE = 50 N, the bound this model states the way a
+Its `max_force` (default 4 N) is at most SIMULATED_MAX_FORCE = 50 N, the bound this model states the way a
 HID profile states its device's: about what the strongest grounded desktop haptic devices give at
 their peak, so a patch tuned on the simulation asks nothing absurd of a real device.
 """
@@ -26,8 +26,8 @@ from ..graph.engine import Driver
 from .kinds import SIMULATED_MAX_FORCE, SimulatedKind
 from .script import script_data, script_point, script_time
 
-
-MAX_FORCE = SIMULATED_MAX_FORCE     # 50 N: the simulated device's bound on max_force (see the module's doc)
+# SIMULATED_MAX_FORCE (50 N): the simulated device's bound on its max_force (see the module's doc);
+# hid_profiles.MAX_FORCE (1000 N) is another thing: the most any profile or device entry may state
 
 
 @helper
@@ -44,7 +44,7 @@ class SimulatedHaptic(Haptic, name="simulated_haptic"):
     mass = Param(0.05, unit="kg", above=0.0, live=False, internal=True)
     hand_stiffness = Param(400.0, unit="N/m", minimum=0.0, live=False, internal=True)
     hand_damping = Param(4.0, unit="N·s/m", minimum=0.0, live=False, internal=True)
-    max_force = Param(4.0, unit="N", above=0.0, maximum=MAX_FORCE, live=False, internal=True)
+    max_force = Param(4.0, unit="N", above=0.0, maximum=SIMULATED_MAX_FORCE, live=False, internal=True)
     x0 = Param(0.0, unit="m", live=False, internal=True)
     hand_x = External()
     hand_v = External()
@@ -155,7 +155,7 @@ class SimulatedDevice(Driver):
         rows = self.script["tracks"].reshape(1 + len(self.axes), len(self.times))
         self.xs, self.axis_tracks = rows[0], list(rows[1:])
         self.columns = ("hand_x", "hand_v") + tuple(self.axes)
-        self.max_force = force_limit(name, SimulatedKind.name, spec.get("max_force", 4.0), MAX_FORCE,
+        self.max_force = force_limit(name, SimulatedKind.name, spec.get("max_force", 4.0), SIMULATED_MAX_FORCE,
                                      "the simulated device's bound")
         self.values = {"mass": float(spec.get("mass", 0.05)),
                        "hand_stiffness": float(spec.get("hand_stiffness", 400.0)),

@@ -29,6 +29,11 @@ import tempfile
 
 import numpy as np
 
+from ..blocks.vocabulary import register_helpers
+from .jit import warm_arguments
+from .kcache import KERNEL_FILE, CacheEntry
+from .numba_start import start as start_numba
+
 NAME = "hapticgraph_aot"
 SPEC = "aot.json"
 _INT64 = "int64"
@@ -260,9 +265,7 @@ def _module(kernel, args, folder, runtime):
     import numba
     from numba.core.compiler_lock import global_compiler_lock
     from numba.pycc import compiler
-    from ..blocks.vocabulary import register_helpers
-    from .numba_start import start
-    start()
+    start_numba()
     register_helpers()
     cc.export("kernel", numba.types.int64(*(numba.typeof(a) for a in args)))(kernel)
     with tempfile.TemporaryDirectory(prefix="hapticgraph-aot-") as build:
@@ -300,15 +303,11 @@ def _runtime(root, say):
     """The object files of numba's C runtime for extension modules named NAME: compiled once per
     cache folder into aot_runtime_<key>/, verified against its manifest before every link."""
     import shutil
-
-    from .kcache import _remove, _write_manifest, verified_files
-    key = _runtime_key()
-    final = os.path.join(root, f"aot_runtime_{key}")
-    if not verified_files(final, key):
+    entry = CacheEntry(root, _runtime_key(), prefix="aot_runtime")
+    if not entry.verify():
         say("compiling numba's C runtime for native kernels (once per cache folder)…")
         cc = _cc()
-        tmp = tempfile.mkdtemp(prefix=f".aot_runtime_{key}.", dir=root)
-        try:
+        with entry.fresh() as tmp:
             with _tool("the C compiler"):
                 objects = cc._compile_mixins(os.path.join(tmp, "build"))
             names = [os.path.basename(o) for o in objects]
@@ -317,16 +316,41 @@ def _runtime(root, say):
             for obj in objects:
                 os.replace(obj, os.path.join(tmp, os.path.basename(obj)))
             shutil.rmtree(os.path.join(tmp, "build"))
-            _write_manifest(tmp, key)
-            try:
-                os.rename(tmp, final)
-            except OSError:
-                if not verified_files(final, key):   # else: another process finished it first
-                    _remove(final)
-                    os.rename(tmp, final)
-        finally:
-            if os.path.isdir(tmp):
-                shutil.rmtree(tmp, ignore_errors=True)
-        if not verified_files(final, key):
-            raise OSError(f"{final}: not as written")
-    return _objects(final)
+            entry.commit(tmp)
+        if not entry.verify():
+            raise OSError(f"{entry.path}: not as written")
+    return _objects(entry.path)
+
+
+class AotBackend:
+    """Kernels built ahead of time into an extension module (the backend protocol: graph/jit.py).
+    `jit` (the JIT backend) compiles in memory for arguments the module was not built for; `say`
+    tells what is being compiled."""
+
+    name = "aot"
+
+    def __init__(self, root, say, jit):
+        self.root, self.say, self.jit = root, say, jit
+
+    def _fallback(self, code, filename):
+        def make():
+            self.say("compiling the kernel with numba for arguments of other types…")
+            return self.jit.memory(code, filename=filename, reuse=True)
+        return make
+
+    def load(self, entry, code, warm):
+        fn = load(entry.path, self._fallback(code, entry.kernel_file))
+        if fn is not None:
+            warm(fn)
+        return fn
+
+    def build(self, folder, code, warm):
+        path = os.path.join(folder, KERNEL_FILE)
+        fn = native(folder, code.module(path).kernel, warm_arguments(warm), self.root, self.say,
+                    self._fallback(code, path))
+        if fn is not None:
+            warm(fn)
+        return fn
+
+    def entry_point(self, fn, args):
+        return fn.native if fn.fits(args) else None

@@ -2,7 +2,7 @@
 import numpy as np
 
 
-def _freeze(value):
+def freeze(value):
     """Lists become tuples of floats (literals), numpy scalars become Python scalars."""
     if isinstance(value, np.ndarray):
         return tuple(float(x) for x in value.ravel())

@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from .interpreter import Interpreter
-from .kernel import CompiledKernel
+from .isolate import compiled
 from .program import Program
 
 ENGINES = ("compiled", "python")
@@ -86,7 +86,7 @@ class Render:
 
 def make_runner(prog, engine="compiled"):
     if engine == "compiled":
-        return CompiledKernel(prog)
+        return compiled(prog)       # a plugin block numba cannot compile: PatchError at its line
     if engine == "python":
         return Interpreter(prog)
     raise ValueError(f"unknown engine {engine!r}; use one of {', '.join(ENGINES)}")
@@ -201,7 +201,10 @@ class Streamed:
 class ArraySink:
     """Keeps every block in arrays: the sink of `render`."""
 
+    started = False
+
     def start(self, rate, channels, probes, total):
+        self.started = True
         self.channels, self.probes, self.count = channels, list(probes), 0
         self.audio = np.zeros((total, channels))
         self.columns = np.zeros((len(self.probes), total))
@@ -331,7 +334,7 @@ def render(patch, seconds, probes=(), engine="compiled", chunk=1 << 14, progress
     try:
         streamed = stream(patch, seconds, sink, probes, engine, chunk, progress, drivers, safety, runaway)
     except (SafetyStop, KeyboardInterrupt) as exc:
-        if hasattr(sink, "audio"):
+        if sink.started:
             exc.result = sink.result(exc.streamed)
         raise
     return sink.result(streamed)

@@ -1,6 +1,6 @@
 """Device entries (`devices:`): which driver kind each names, its axes, the driver kinds' own
 checks, and the blocks bound to each entry."""
-from .errors import _suggest
+from .errors import suggest
 from .source import LDict
 
 
@@ -19,7 +19,7 @@ def device_axes(devices, name, drivers):
     return list(kind.axes(spec)) if kind is not None else []
 
 
-def _check_drivers(devices, drivers, base, problems):
+def check_drivers(devices, drivers, base, problems):
     """Each device entry names a known driver (or there is a default one), which checks the rest."""
     if not isinstance(devices, LDict):
         return
@@ -30,14 +30,14 @@ def _check_drivers(devices, drivers, base, problems):
         if kind is None:
             given = spec.get("driver")
             known = ", ".join(sorted(drivers)) or "none (the loader was given no driver table)"
-            what = (f"unknown driver {given!r}{_suggest(str(given), drivers)}" if given is not None
+            what = (f"unknown driver {given!r}{suggest(str(given), drivers)}" if given is not None
                     else "no driver given, and there is no default one")
             problems.add(spec.lines.get("driver", spec.line), f"device {name!r}: {what}; the drivers are: {known}")
             continue
         kind.check(name, spec, base, problems)
 
 
-def _check_bound_blocks(devices, blocks, problems):
+def check_bound_blocks(devices, blocks, problems):
     """Every device reference names a declared device, once."""
     users = {}
     for inst in blocks.values():
@@ -51,7 +51,7 @@ def _check_bound_blocks(devices, blocks, problems):
                                    f"name the device (one of: {', '.join(devices) or 'none declared under devices:'})")
             elif value not in devices:
                 problems.add(line, f"block {inst.name!r} ({inst.cls.type_name}): parameter {pname!r}: "
-                                   f"no device named {value!r} under devices:{_suggest(value, devices)}")
+                                   f"no device named {value!r} under devices:{suggest(value, devices)}")
             elif value in users:
                 problems.add(line, f"block {inst.name!r}: device {value!r} is already bound to block {users[value]!r}")
             else:

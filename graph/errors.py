@@ -30,6 +30,11 @@ class PatchError(Exception):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
+class PlanError(Exception):
+    """A checked patch cannot be run as asked: a probe or a device it cannot supply, a live edit
+    it refuses (hapticgraph.PlanError)."""
+
+
 class Collector:
     """Gathers problems for one file, so a check can report them all at once. It keeps at most
     `limit`; past that it only counts, and `full` tells the loader to stop reading."""
@@ -76,18 +81,14 @@ class Collector:
             raise PatchError(self.problems, self.summary())
 
 
-def _suggest(word, choices):
+def suggest(word, choices):
     """' (did you mean X?)' for the closest of choices, or ''."""
     import difflib
     close = difflib.get_close_matches(word, list(choices), n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-def _names(names, most=20):
+def name_list(names, most=20):
     names = list(names)
     shown = ", ".join(names[:most])
     return shown + (f", … ({len(names) - most} more)" if len(names) > most else "") if names else "none"
-
-
-# the same two under public names, for the layers above (the command line, the console)
-suggest, name_list = _suggest, _names

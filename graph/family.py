@@ -9,7 +9,10 @@ group's input array, its controls and step arguments become IR nodes (graph/ir.p
 meaning, emitted for the kernel and evaluated by the interpreter.
 """
 from ..blocks.family import Array, Control, Flag, Number, touching
-from .ir import ArrayItem, Inverse, Literal, Sum
+from ..blocks.vocabulary import arguments
+from .codegen import emit_call
+from .identifiers import note
+from .ir import ArrayItem, Inverse, Literal, Total
 
 
 def family_of(inst):
@@ -79,16 +82,16 @@ class GroupStep:
 
     def driven(self, end):
         """The sum of what is wired into a point's input port."""
-        return Sum(tuple(self.forces.get((self.group.point_array(end.port), self.point(end)), ())))
+        return Total(tuple(self.forces.get((self.group.point_array(end.port), self.point(end)), ())))
 
-    def _node(self, arg):
+    def _node(self, arg, name):
         prog = self.prog
         if isinstance(arg, Array):
             return self.arrays[arg.key]
         if isinstance(arg, Number):
             return prog.number(arg.value, arg.kind, self.prefix, arg.name)
         if isinstance(arg, Flag):
-            return Literal(bool(arg.value))
+            return Literal(bool(arg.value), f"{self.prefix}: {name}")
         if isinstance(arg, Control):
             node = prog.param_binding(prog.by_name[arg.block], arg.param)
             return Inverse(node) if arg.inverse else node
@@ -102,28 +105,28 @@ class GroupStep:
         self.group.wired(wired)
         for key, value in self.group.arrays.items():     # the group may have replaced one
             self.prog.arrays[self.arrays[key].index] = value
-        self.sets = [(self.arrays[key], tuple(int(i) for i in at), self._node(c))
+        self.sets = [(self.arrays[key], tuple(int(i) for i in at), self._node(c, key))
                      for key, at, c in self.group.controls()]
         fn, args = self.group.step()
-        self.call = (fn, [self._node(a) for a in args])
+        names = arguments(fn) + ("",) * len(args)       # a literal is named after its argument
+        self.call = (fn, [self._node(a, names[k]) for k, a in enumerate(args)])
 
     # -- the schedule-item protocol ------------------------------------------------------------
     def functions(self):
         return [self.call[0]]
 
     def emit(self, e):
-        from .kernel import note
         e(f"# {note(', '.join(self.group.names))} ({note(self.family.__name__)} group)")
         for (key, flat), sources in self.forces.items():
-            e(f"{self.arrays[key].emit()}[{self.points[flat].emit()}] += {Sum(tuple(sources)).emit()}")
+            e(f"{self.arrays[key].emit()}[{self.points[flat].emit()}] += {Total(tuple(sources)).emit()}")
         for ref, at, node in self.sets:
             e(f"{ref.emit()}[{', '.join(map(str, at))}] = {node.emit()}")
         fn, args = self.call
-        e(f"{fn.__name__}({', '.join(a.emit() for a in args)})")
+        emit_call(e, "", fn.__name__, args)
 
     def run(self, frame):
         for (key, flat), sources in self.forces.items():
-            frame.arrays[self.arrays[key].index][self.points[flat].value(frame)] += Sum(tuple(sources)).value(frame)
+            frame.arrays[self.arrays[key].index][self.points[flat].value(frame)] += Total(tuple(sources)).value(frame)
         for ref, at, node in self.sets:
             frame.arrays[ref.index][at] = node.value(frame)
         fn, args = self.call

@@ -16,91 +16,10 @@ unique. A node built without a name falls back to its slot: sK lK cK bK aK, oK_a
   t        the shared sample counter (i: the sample inside the call)
   ext      the per-sample device/input columns (ext[i, col])
 """
-import builtins
-import keyword
-import math
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
-_IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-
-
-class KernelSourceError(TypeError):
-    """A name that would reach the generated source is not a plain identifier."""
-
-
-def ident(name, what):
-    """`name` if it is an ASCII identifier matched whole, else KernelSourceError."""
-    if not isinstance(name, str) or not _IDENT.fullmatch(name):
-        raise KernelSourceError(f"{what} {name!r} is not a plain identifier; it cannot be compiled")
-    return name
-
-
-def lit(v):
-    """A Python literal for a static value (numba reads it as a compile-time constant)."""
-    if isinstance(v, bool):
-        return "True" if v else "False"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "math.nan"
-        if math.isinf(v):
-            return "math.inf" if v > 0 else "-math.inf"
-        return repr(v)
-    if isinstance(v, str):
-        # spelled as code points, so no text of a patch is pasted into the source
-        return '"' + "".join(f"\\U{ord(c):08x}" for c in v) + '"'
-    if isinstance(v, tuple):
-        return "(" + "".join(lit(float(x)) + ", " for x in v) + ")"
-    raise TypeError(f"no literal for {v!r}")
-
-
-# names the kernel module defines or reads besides the patch's locals
-KERNEL_NAMES = frozenset({"math", "np", "numba", "kernel", "t", "t0", "i", "n", "state", "live", "coef",
-                          "rec", "ext", "jit", "collections", "kernel_guard"})
-
-
-def sanitize(text, limit=40):
-    """An identifier made of `text`: every character outside [A-Za-z0-9_] becomes `_`; prefixed
-    with `b_` if it is empty, starts with a digit, or is a keyword, a builtin or a kernel name."""
-    name = "".join(c if c.isascii() and (c.isalnum() or c == "_") else "_" for c in str(text)[:limit])
-    if not name or name[0].isdigit() or keyword.iskeyword(name) or keyword.issoftkeyword(name) \
-            or hasattr(builtins, name) or name in KERNEL_NAMES:
-        name = "b_" + name
-    return ident(name, "sanitized name")
-
-
-class Names:
-    """The kernel's names: a prefix per block (sanitized, unique among blocks) and locals built
-    from it, each unique in the kernel (suffix _2, _3, ... on a clash) and never a reserved name."""
-
-    def __init__(self, reserved=()):
-        self.taken = set(KERNEL_NAMES) | set(reserved)
-        self.prefixes = set()
-        self.known = {}
-
-    @staticmethod
-    def _unique(base, taken):
-        name, k = base, 2
-        while name in taken or keyword.iskeyword(name) or hasattr(builtins, name):
-            name, k = f"{base}_{k}", k + 1
-        taken.add(name)
-        return name
-
-    def prefix(self, key, text):
-        """The identifier block `key` (named `text` in the patch) prefixes its locals with."""
-        if ("prefix", key) not in self.known:
-            self.known[("prefix", key)] = self._unique(sanitize(text), self.prefixes)
-        return self.known[("prefix", key)]
-
-    def local(self, key, prefix, attr):
-        """The local `prefix_attr` (attr comes from Python declarations), the same for one key."""
-        if key not in self.known:
-            base = f"{ident(prefix, 'name prefix')}_{ident(attr, 'attribute')}"
-            self.known[key] = self._unique(base, self.taken)
-        return self.known[key]
+from .identifiers import KERNEL_NAMES, KernelSourceError, Names, ident, lit, sanitize  # noqa: F401  (the IR's spelling)
 
 
 def _named(node, fallback):
@@ -146,8 +65,11 @@ class Node:
 
 @dataclass(frozen=True)
 class Literal(Node):
-    """A static value baked into the source: a number, a flag, a short tuple of floats."""
+    """A static value baked into the source: a flag, a choice, a ring's mask (structure: changing
+    it compiles another kernel). `name` says what it is (`loop: line ring mask`, compiler text and
+    names reduced to [A-Za-z0-9_]); the code generator writes it as a comment beside the value."""
     constant: Any
+    name: str = field(default=None, compare=False)
 
     @property
     def atomic(self):
@@ -161,8 +83,9 @@ class Literal(Node):
 
 
 @dataclass(frozen=True)
-class Sum(Node):
-    """The sum of several connections into one input, left to right; 0.0 when there is none."""
+class Total(Node):
+    """The sum of several connections into one input, left to right; 0.0 when there is none.
+    (Named apart from the `sum` block type, which adds signals inside a patch.)"""
     terms: tuple
 
     @property

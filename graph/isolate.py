@@ -1,6 +1,7 @@
 """Plugin blocks, each compiled on its own, so that a block numba cannot compile is reported at its
 plugin's file and line (`block 'NAME' (TYPE): numba cannot compile output(): <reason>`), not as
-numba's view of the whole kernel."""
+numba's view of the whole kernel. `compiled(prog)` is the compiler with that diagnosis (what the
+engine uses); `plugin_problems(patch)` what `hapticgraph check` runs."""
 import inspect
 import math
 import os
@@ -8,13 +9,28 @@ import re
 import sys
 
 from ..blocks.vocabulary import Block, Out, Param
-from .errors import Problem
-from .ir import KernelSourceError
-from .kernel import CompiledKernel, note
+from .errors import PatchError, Problem
+from .identifiers import KernelSourceError, note
+from .kernel import CompiledKernel
+from .model import Connection, Endpoint, Instance
 from .program import PlanError, Program
 
 
-def _is_numba_error(exc):
+def compiled(prog):
+    """The CompiledKernel of a program; when numba cannot compile it, PatchError naming the plugin
+    block at fault (compiled on its own), not numba's view of the kernel, if one is."""
+    try:
+        return CompiledKernel(prog)
+    except Exception as exc:  # noqa: BLE001 - numba's errors have no one base class
+        if not is_numba_error(exc):
+            raise
+        problems = plugin_problems(prog.patch)
+        if problems:
+            raise PatchError(problems) from None
+        raise
+
+
+def is_numba_error(exc):
     try:
         from numba.core.errors import NumbaError
     except ImportError:
@@ -79,26 +95,19 @@ class IsolationFeed(Block, name="isolation_feed"):
         return math.sin(0.001 * t + seed)
 
 
-class _Isolated:
-    """A patch of one block (every connected input fed by an IsolationFeed), for its own compile."""
-
-    def __init__(self, patch, inst):
-        from .patch import Connection, Endpoint, Instance
-        noise = IsolationFeed
-        self.file, self.doc, self.name, self.rate = patch.file, patch.doc, f"check_{inst.cls.type_name}", patch.rate
-        self.devices, self.registry = patch.devices, patch.registry
-        self.blocks, self.connections, self.order = {}, [], []
-        fed = sorted({c.dst.port for c in patch.connections if c.dst.block == inst.name and c.dst.index is None})
-        for k, port in enumerate(fed):
-            feed = f"feed{k}"
-            values = noise.default_params()
-            values["seed"] = k + 1
-            self.blocks[feed] = Instance(feed, noise, values, inst.line, {}, -1 - k)
-            self.connections.append(Connection(Endpoint(feed, None, noise.y.name), Endpoint(inst.name, None, port),
-                                               inst.line))
-            self.order.append(feed)
-        self.blocks[inst.name] = inst
-        self.order.append(inst.name)
+def isolated(patch, inst):
+    """The part of the patch that is one block, each connected input fed by an IsolationFeed (so
+    its inputs and live parameters are typed as in the patch, not as constants)."""
+    fed = sorted({c.dst.port for c in patch.connections if c.dst.block == inst.name and c.dst.index is None})
+    feeds, connections = [], []
+    for k, port in enumerate(fed):
+        values = IsolationFeed.default_params()
+        values["seed"] = k + 1
+        feed = Instance(f"feed{k}", IsolationFeed, values, inst.line, {}, -1 - k)
+        feeds.append(feed)
+        connections.append(Connection(Endpoint(feed.name, None, IsolationFeed.y.name),
+                                      Endpoint(inst.name, None, port), inst.line))
+    return patch.subset(f"check_{inst.cls.type_name}", feeds + [inst], connections)
 
 
 def plugin_blocks(patch):
@@ -126,11 +135,11 @@ def plugin_problems(patch):
             continue
         done.add(sig)
         try:
-            prog = Program(_Isolated(patch, inst))
+            prog = Program(isolated(patch, inst))
         except (PlanError, KeyError, ValueError):
             continue         # bound to a device or a network: only the whole patch can compile it
         try:
-            CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})", diagnose=False)
+            CompiledKernel(prog, label=f"plugin block {note(inst.name)} ({inst.cls.type_name})")
         except KernelSourceError as exc:
             try:
                 line = inspect.getsourcelines(inst.cls)[1]
@@ -139,7 +148,7 @@ def plugin_problems(patch):
             problems.append(Problem(file, line,
                                     f"block {inst.name!r} ({inst.cls.type_name}): {exc}"))
         except Exception as exc:  # noqa: BLE001 - numba's errors have no one base class
-            if not _is_numba_error(exc):
+            if not is_numba_error(exc):
                 raise
             which, path, line = _culprit(inst.cls, exc)
             problems.append(Problem(path, line, f"block {inst.name!r} ({inst.cls.type_name}): numba cannot "

@@ -2,7 +2,7 @@
 
 Each item offers
   functions()   the Python functions it calls (the kernel imports them; the cache key hashes them)
-  emit(e)       its lines of the kernel's sample loop (e: a graph.kernel.Emitter)
+  emit(e)       its lines of the kernel's sample loop (e: a graph.codegen.Emitter)
   run(frame)    the same step in the reference interpreter (frame: graph.ir.Frame)
 and the compiler and the interpreter loop over `Program.items` and nothing else: a block's
 output (with its per-sample derive), a recorded value (audio, probe, the force a device
@@ -10,7 +10,9 @@ receives), the safety check of the records (graph.guard.Guard, which also emits 
 start and end: `emit_start`, `emit_end`, and `end` for the interpreter), a block's update, a
 fused family group's step (graph.family.GroupStep).
 """
-from .ir import Sum, ident
+from .codegen import emit_call
+from .identifiers import ident, note
+from .ir import Total
 
 
 def _args(nodes):
@@ -33,7 +35,6 @@ class BlockOutput:
         return ([cls.derive] if self.params is not None else []) + ([cls.output] if cls.output else [])
 
     def emit(self, e):
-        from .kernel import note
         bp, prog, tname = self.bp, self.prog, _tname(self.bp)
         e(f"# {note(bp.name, 30)} ({tname})")
         if self.params is not None:
@@ -41,7 +42,7 @@ class BlockOutput:
             e(f"{coefs} = {tname}_derive({params}({_args(bp.derive_args.values())}), {prog.rate_node().emit()})")
         if bp.cls.output is not None:
             outs = [prog.output(bp, o.attr).emit() for o in bp.cls.outputs]
-            e(f"{', '.join(outs)} = {tname}_output({_args(bp.output_args)})")
+            emit_call(e, ", ".join(outs), f"{tname}_output", bp.output_args)
 
     def run(self, frame):
         bp = self.bp
@@ -67,7 +68,6 @@ class Record:
         return []
 
     def emit(self, e):
-        from .kernel import note
         e(f"rec[i, {int(self.column)}] = {self.binding.emit()}  # {note(self.label)}")
 
     def run(self, frame):
@@ -85,8 +85,7 @@ class BlockUpdate:
 
     def emit(self, e):
         bp = self.bp
-        call = f"{_tname(bp)}_update({_args(bp.update_args)})"
-        e(f"{_args(bp.state_nodes)} = {call}" if bp.states else call)
+        emit_call(e, _args(bp.state_nodes) if bp.states else "", f"{_tname(bp)}_update", bp.update_args)
 
     def run(self, frame):
         bp = self.bp
@@ -109,4 +108,4 @@ def schedule_items(prog):
     return items + list(prog.groups)
 
 
-__all__ = ["BlockOutput", "BlockUpdate", "Record", "Sum", "schedule_items"]
+__all__ = ["BlockOutput", "BlockUpdate", "Record", "schedule_items"]

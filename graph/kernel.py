@@ -1,197 +1,96 @@
-"""The compiler: emit ONE readable kernel module per patch, write it to the cache folder under a
-hash, import it and let numba compile it (and cache the machine code beside it).
+"""The compiler's orchestration: generate ONE readable kernel module per program (graph/codegen.py),
+name it by its key (graph/cachekey.py), find it in the verified cache (graph/kcache.py) or have a
+backend build it there (ahead of time, graph/aot.py, else numba's JIT, graph/jit.py), and run it.
 
-The generated `kernel(n, t0, state, live, coef, rec, ext, <buffers>, <arrays>)` runs n samples: state
-and live parameters are loaded into locals before the sample loop and stored back after it; in
-the loop every block's `output` then every `update` runs in schedule order, static values are
-literals, buffers are power-of-two rings indexed through the shared counter `t`. The guard
-(graph/guard.py) checks the records each sample and gives the kernel's return value: 0, or the
-code of the first fault.
-
-The source holds no text from a patch: only identifiers the compiler makes (slot numbers), names
-of Python modules, classes and functions (each matched whole as an identifier), numbers it
-formats, and comments reduced to [A-Za-z0-9_]. A file name or block name cannot become code.
-
-The cache is verified, never trusted: each kernel has its own folder `kernel_<key>/` holding
-`kernel.py`, numba's `__pycache__/` and `manifest.json` (the SHA-256 of every other file),
-written after a successful compile. An entry is used only when `kernel.py` is byte for byte the
-source just generated and every file matches the manifest (no file missing, none extra);
-otherwise it is deleted and rebuilt. The key hashes the source, the numba, llvmlite, numpy and
-Python versions, the CPU, every module that defines a function the kernel calls and every
-plugin file the patch loaded.
+The cache is verified, never trusted (graph/kcache.py): an entry is used only when its kernel.py
+is byte for byte the source just generated and every file matches its manifest.
 """
 import os
-import re
 import sys
 import time
 
-from ..blocks.vocabulary import register_helpers
-from .errors import PatchError
-from .ir import KernelSourceError, ident
-from .numba_start import start as start_numba
-from .kcache import MANIFEST, _compile, cache_dir, kernel_key, usable_cache_dir, verified  # noqa: F401
-from .program import Program
+import numpy as np
 
-# Set by the command line (unless --quiet) to a callable taking one line of text: told when a
-# kernel is compiled rather than loaded from the cache. Library code prints nothing by default.
-notice = None
+from . import aot
+from .aot import AotBackend
+from .cachekey import kernel_key
+from .codegen import generate
+from .identifiers import note
+from .jit import JitBackend, KernelCode, jit
+from .kcache import CacheEntry, cache_dir, usable_cache_dir, warn_once
 
-_DOTTED = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
-_jitted = {}
-_loaded = {}            # (cache folder, key) -> (dispatcher, path): kernels this process compiled or loaded
+__all__ = ["CompiledKernel", "compile_kernel", "generate", "set_notice"]
 
-
-def dotted(name, what):
-    if not isinstance(name, str) or not _DOTTED.fullmatch(name):
-        raise KernelSourceError(f"{what} {name!r} is not a dotted identifier; it cannot be compiled")
-    return name
+_notice = []            # who is told that a kernel is compiled (set_notice); nobody by default
+_loaded = {}            # (cache folder, key) -> (kernel, path, backend): kernels this process compiled or loaded
+JIT = JitBackend()
 
 
-def note(text, limit=60):
-    """Text for a comment of the kernel: every character outside [A-Za-z0-9_] becomes `_`."""
-    return "".join(c if c.isascii() and (c.isalnum() or c == "_") else "_" for c in str(text)[:limit])
+def set_notice(tell):
+    """`tell(text)` (one line) is told when a kernel is compiled rather than loaded from the cache
+    (the command line prints it unless --quiet); None: nobody. Library code prints nothing by default."""
+    _notice[:] = [tell] if tell is not None else []
 
 
-def jit(fn):
-    """The numba dispatcher of a block function, made once per process.
-
-    inline="always" makes numba splice the function into the kernel's IR instead of compiling
-    and linking a module of its own: the code is the same (LLVM inlined the calls anyway), a
-    cold compile takes about half as long. Block functions are not cached on their own: inlined,
-    they are never compiled on their own, and a cache file beside a block's module (in
-    site-packages or a plugin's folder) would be one nothing verifies.
-    """
-    d = _jitted.get(fn)
-    if d is None:
-        import numba
-        start_numba()
-        register_helpers()
-        d = _jitted[fn] = numba.njit(fn, cache=False, inline="always")
-    return d
+def _say(text):
+    for tell in _notice:
+        tell(text)
 
 
-class Emitter:
-    """Lines of Python with indentation (the whole code generator leans on this)."""
-
-    def __init__(self):
-        self.lines, self.level = [], 0
-
-    def __call__(self, line=""):
-        self.lines.append("    " * self.level + line if line else "")
-
-    def indent(self):
-        self.level += 1
-
-    def dedent(self):
-        self.level -= 1
-
-    def source(self):
-        return "\n".join(self.lines) + "\n"
+def backends(root):
+    """The backends that build and load kernels in the cache folder `root`, in order of preference."""
+    return ([AotBackend(root, _say, JIT)] if aot.enabled() else []) + [JIT]
 
 
-def generate(prog: Program):
-    """The kernel module's source for a program, and the Python functions it calls.
-
-    Nothing from the patch reaches the source as text: numbers are data (the coef array), names
-    are sanitized identifiers, comments carry names reduced to [A-Za-z0-9_], and module, class,
-    function and parameter names (which come from Python, not from the patch) are matched whole
-    as identifiers. The sample loop is the program's schedule items, in order (graph/items.py).
-    """
-    body = Emitter()
-    args = [node.emit() for node in prog.buffer_nodes + prog.array_nodes]
-    body("# compiled by hapticgraph.graph.kernel with numba.njit, nogil; cached beside this file")
-    body(f"def kernel(n, t0, state, live, coef, rec, ext{''.join(', ' + a for a in args)}):")
-    body.indent()
-    for node in _loaded_nodes(prog):
-        body(f"{node.emit()} = {node.load()}")
-    prog.guard.emit_start(body)
-    body("for i in range(n):")
-    body.indent()
-    body("t = t0 + i")
-    for item in prog.items:
-        item.emit(body)
-    body.dedent()
-    for bp in prog.plans:
-        for node in bp.state_nodes:
-            body(f"{node.load()} = {node.emit()}")
-    prog.guard.emit_end(body)       # the safety check's verdict, forces zeroed or clamped
-    e = Emitter()
-    e("# hapticgraph kernel, generated; do not edit. Numbers are data (coef); this text is the structure.")
-    e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
-    fns = _emit_imports(e, prog, uses_math="math." in body.source())
-    e()
-    e()
-    return e.source() + body.source(), fns
+def compile_kernel(key, source, label, warm):
+    """(kernel, path of kernel.py or None, backend): from a verified cache entry, else compiled
+    (into a fresh entry when the cache folder is usable, else in memory)."""
+    code = KernelCode(key, source)
+    root = usable_cache_dir()
+    if root is not None:
+        entry = CacheEntry(root, key)
+        if entry.verify(source):
+            for backend in backends(root):
+                fn = backend.load(entry, code, warm)
+                if fn is not None:
+                    return fn, entry.kernel_file, backend
+        _say(f"compiling {label}…")
+        try:
+            return _into_entry(entry, code, warm)
+        except OSError as exc:
+            warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
+    else:
+        _say(f"compiling {label}…")
+    return JIT.memory(code, warm), None, JIT
 
 
-def _loaded_nodes(prog):
-    """Scalar state, live parameters, coefficients and numbers: loaded into locals before the
-    sample loop (numba keeps them in registers inside it)."""
-    nodes = [node for bp in prog.plans for node in bp.state_nodes]
-    for bp in prog.plans:
-        nodes += list(bp.live_nodes.values()) + list(bp.coef_nodes.values())
-    return nodes + prog.number_nodes
-
-
-def _emit_imports(e, prog, uses_math):
-    """The modules and functions the kernel uses (and only those); the functions called."""
-    per_sample = [bp for bp in prog.plans if bp.coef_mode == "per_sample"]
-    if per_sample:
-        e("import collections")
-    if uses_math:
-        e("import math")
-    e("from hapticgraph.graph.kernel import jit")
-    e()
-    called = {fn for item in prog.items for fn in item.functions()}
-    fns = _emit_block_imports(e, prog, called)
-    for fn in sorted((fn for fn in called if fn not in fns), key=lambda f: (f.__module__, f.__name__)):
-        module, name = dotted(fn.__module__, "module of a step function"), ident(fn.__name__, "step function")
-        e(f"from {module} import {name}")     # a @helper: numba compiles it where the kernel calls it
-        fns.append(fn)
-    for bp in per_sample:
-        fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)
-        params = ident(prog.derived(bp)[1], "parameter tuple")
-        e(f"{params} = collections.namedtuple('{params}', [{fields}])")
-    return fns
-
-
-def _emit_block_imports(e, prog, called):
-    """Each block type whose functions the kernel calls, and `TYPE_output = jit(...)` for each."""
-    classes, fns = set(), []
-    for bp in prog.plans:
-        cls = bp.cls
-        which = [w for w in ("derive", "output", "update") if getattr(cls, w) is not None and getattr(cls, w) in called]
-        if cls in classes or not which:
-            continue
-        classes.add(cls)
-        tname = ident(cls.type_name, "block type name")
-        alias = f"{tname}_type"
-        module, qual = cls.__module__, cls.__qualname__
-        if "<locals>" in qual:
-            raise KernelSourceError(f"block type {tname!r} must be defined at module level to be compiled")
-        dotted(module, f"module of block type {tname!r}")
-        dotted(qual, f"class name of block type {tname!r}")
-        if "." in qual:
-            e(f"import {module} as {alias}_module")
-            e(f"{alias} = {alias}_module.{qual}")
-        else:
-            e(f"from {module} import {qual} as {alias}")
-        for w in which:
-            e(f"{tname}_{w} = jit({alias}.{w})")
-            fns.append(getattr(cls, w))
-    return fns
+def _into_entry(entry, code, warm):
+    """(kernel, path of kernel.py, backend): built by the first backend that can into a fresh
+    folder, which then becomes the entry."""
+    try:
+        with entry.fresh() as folder:
+            with open(os.path.join(folder, "kernel.py"), "w", encoding="utf-8") as f:
+                f.write(code.source)
+            for backend in backends(entry.root):
+                fn = backend.build(folder, code, warm)
+                if fn is not None:
+                    break
+            entry.commit(folder, code.source)
+    except BaseException:   # numba cannot compile it, or an interrupt: nothing left behind
+        code.forget()
+        raise
+    return fn, entry.kernel_file, backend
 
 
 class CompiledKernel:
     """The imported, jitted kernel of a program; `run(t0, rec)` fills rec (n × records)."""
 
-    def __init__(self, prog: Program, label=None, diagnose=True):
-        import numpy as np
+    def __init__(self, prog, label=None):
         start = time.perf_counter()     # numba is started where it is used: a native kernel needs none
         self.prog = prog
         source, fns = generate(prog)
         self.source = source
-        self.key = kernel_key(source, fns, prog)
+        self.key = kernel_key(source, list(fns) + [jit], prog.patch.registry.plugin_files)
         self.extra = tuple(prog.buffers) + tuple(prog.arrays)
 
         def warm(fn):
@@ -201,21 +100,11 @@ class CompiledKernel:
         label = label or f"kernel for {len(prog.plans)} block{'s' if len(prog.plans) != 1 else ''}"
         where = (cache_dir(), self.key)
         loaded = _loaded.get(where)
-        try:
-            if loaded is None:
-                loaded = _loaded[where] = _compile(self.key, source, label, warm)
-            else:
-                warm(loaded[0])
-        except Exception as exc:
-            from .isolate import _is_numba_error, plugin_problems
-            if not diagnose or not _is_numba_error(exc):
-                raise
-            # name the plugin block at fault (compiled on its own), not numba's view of the kernel
-            problems = plugin_problems(prog.patch) if hasattr(prog.patch, "registry") else None
-            if problems:
-                raise PatchError(problems) from None
-            raise
-        self.fn, self.path = loaded
+        if loaded is None:
+            loaded = _loaded[where] = compile_kernel(self.key, source, label, warm)
+        else:
+            warm(loaded[0])
+        self.fn, self.path, self.backend = loaded
         if os.environ.get("HAPTICGRAPH_DUMP") == "1":
             where = self.path or "compiled in memory (no usable cache folder)"
             print(f"hapticgraph: kernel for {note(prog.patch.name)} is {where}", file=sys.stderr)
@@ -225,11 +114,12 @@ class CompiledKernel:
         """Run rec.shape[0] samples from t0; the guard's code (0: sound; graph/guard.py).
 
         The same rec and ext as the last call (a Session's views) go straight to the machine code
-        numba compiled for their types (its entry point), skipping the dispatcher's typing of
+        compiled for their types (the backend's entry point), skipping the dispatcher's typing of
         every argument (about 0.5 µs a call; for a kernel built ahead of time, its module's
-        function without the per-call type checks, done once when remembered); anything else goes through the dispatcher, which
-        types it, and is remembered, when it comes twice in a row, if its types are the ones
-        compiled (the Program's arrays are never rebound, so they are remembered with it)."""
+        function without the per-call type checks, done once when remembered); anything else goes
+        through the dispatcher, which types it, and is remembered, when it comes twice in a row,
+        if its types are the ones compiled (the Program's arrays are never rebound, so they are
+        remembered with it)."""
         if rec is self._rec and ext is self._ext:
             return self._entry(rec.shape[0], t0, self._state, self._live, self._coef, rec, ext, *self.extra)
         p = self.prog
@@ -243,27 +133,13 @@ class CompiledKernel:
     _seen = (None, None)
 
     def _remember(self, t0, rec, ext):
-        """Keep the entry point compiled for exactly these arguments' types (numba's own typeof)."""
+        """Keep the entry point compiled for exactly these arguments' types."""
         if type(t0) is not int:     # Session's counter; numba types other numbers otherwise
             return
         p = self.prog
-        args = (rec.shape[0], t0, p.state, p.live, p.coef, rec, ext) + self.extra
-        try:
-            if hasattr(self.fn, "fits"):        # built ahead of time (graph/aot.py): its checks, once
-                if not self.fn.fits(args):
-                    raise TypeError("not the built types")
-                entry = self.fn.native
-            else:
-                sig = tuple(self.fn.typeof_pyval(a) for a in args)
-                entry = self.fn.overloads[sig].entry_point
-        except (KeyError, AttributeError, TypeError, ValueError):
+        entry = self.backend.entry_point(self.fn, (rec.shape[0], t0, p.state, p.live, p.coef, rec, ext) + self.extra)
+        if entry is None:
             self._rec = self._ext = None
             return
         self._entry, self._state, self._live, self._coef = entry, p.state, p.live, p.coef
         self._rec, self._ext = rec, ext
-
-
-def plugin_problems(patch):
-    """Compile every plugin block of the patch on its own (graph/isolate.py); [Problem]."""
-    from .isolate import plugin_problems as problems
-    return problems(patch)

@@ -8,111 +8,21 @@ import re
 
 import jsonschema
 
-from ..blocks.numbers import whole_number
-from .errors import Collector, PatchError, _names, _suggest  # noqa: F401
+from .entries import check_bound_blocks, check_drivers, device_axes, driver_of  # noqa: F401  (devices/ reads these here)
+from .errors import Collector, PatchError, name_list, suggest
 from .family import check_families, kernel_cost
-from .entries import _check_bound_blocks, _check_drivers, device_axes, driver_of  # noqa: F401
-from .validate import _check_schema
-from .voices import expand as expand_voices
-from .wiring import _connections
+from .model import Connection, Endpoint, Instance, Patch
 from .registry import Registry, RegistryError, driver_table
 from .schedule import schedule
-from .schema import INDEX
 from .source import LDict, LList, load_yaml, parse_value
+from .validate import check_schema
+from .voices import expand as expand_voices
+from .wiring import connections_of
 
 DEFAULT_RATE = 44100.0
 # the most blocks one kernel holds (a fused mass-spring network counts as one): numba's memory
 # grows with the kernel's size (docs/limits.md has the measurements)
 MAX_BLOCKS = 1000
-_NAME = r"[A-Za-z_][A-Za-z0-9_]*"
-_ENDPOINT = re.compile(rf"\s*({_NAME})(?:\[([^\]]*)\])?\.({_NAME})\s*")
-_INDEX = re.compile(INDEX)     # the schema's: `[i, j]` of whole numbers
-
-
-class Endpoint:
-    """`block.port` or `block[i, j].port` in a connection."""
-
-    __slots__ = ("block", "index", "port")
-
-    def __init__(self, block, index, port):
-        self.block, self.index, self.port = block, index, port
-
-    def __str__(self):
-        idx = "" if self.index is None else "[" + ", ".join(map(str, self.index)) + "]"
-        return f"{self.block}{idx}.{self.port}"
-
-    @classmethod
-    def parse(cls, text):
-        """An Endpoint, or None if `text` cannot be read (`problem` says why)."""
-        m = _ENDPOINT.fullmatch(text)
-        if not m or (m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]")):
-            return None
-        index = None if m.group(2) is None else tuple(whole_number(v) for v in m.group(2).split(","))
-        return cls(m.group(1), index, m.group(3))
-
-    @staticmethod
-    def problem(text):
-        """Why `text` is not an endpoint: a sentence, or None if it is one."""
-        m = _ENDPOINT.fullmatch(text)
-        if m is None:
-            return "write block.port, or name[i, j].port for a cell"
-        if m.group(2) is not None and not _INDEX.fullmatch(f"[{m.group(2)}]"):
-            return (f"the cell index [{m.group(2)}] must be whole numbers separated by commas, "
-                    f"e.g. {m.group(1)}[1, 2].{m.group(3)}")
-        return None
-
-
-class Connection:
-    __slots__ = ("src", "dst", "line")
-
-    def __init__(self, src, dst, line):
-        self.src, self.dst, self.line = src, dst, line
-
-    def __str__(self):
-        return f"{self.src} -> {self.dst}"
-
-
-class Instance:
-    """One block of a patch: its type, parameter values (defaults filled in) and ports."""
-
-    def __init__(self, name, cls, values, line, lines, index):
-        self.name, self.cls, self.values, self.line, self.lines, self.index = (
-            name, cls, values, line, lines, index)
-        self.inputs, self.outputs = cls.ports(values)
-        self.built = {}     # what its family built at load for the group it leads (blocks/family.py)
-
-    @property
-    def params(self):
-        return self.cls.param_tuple()(**self.values)
-
-    def input(self, name):
-        """The In port (or live parameter name) called `name`, or None."""
-        for port in self.inputs:
-            if port.name == name:
-                return port
-        param = self.cls.params.get(name)
-        return param if param is not None and param.live else None
-
-    def output(self, name):
-        for port in self.outputs:
-            if port.name == name:
-                return port
-        return None
-
-    def line_of(self, key):
-        return self.lines.get(key, self.line)
-
-
-class Patch:
-    """A checked patch: blocks, connections, devices and the schedule (block names, in order)."""
-
-    def __init__(self, file, doc, name, rate, blocks, connections, devices, order, registry):
-        self.file, self.doc, self.name, self.rate = file, doc, name, rate
-        self.blocks, self.connections, self.devices = blocks, connections, devices
-        self.order, self.registry = order, registry
-
-    def __repr__(self):
-        return f"<Patch {self.name!r} from {self.file}: {len(self.blocks)} blocks at {self.rate:g} Hz>"
 
 
 def load(path, overrides=(), registry=None, drivers=None):
@@ -130,16 +40,16 @@ def load(path, overrides=(), registry=None, drivers=None):
     doc = expand_voices(doc, registry, problems)     # a `voices:` template becomes blocks per voice
     _apply_overrides(doc, overrides, registry, problems)
     _stop_if_full(problems)
-    _check_schema(doc, registry, problems)
+    check_schema(doc, registry, problems)
     _stop_if_full(problems)
-    _check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
+    check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
     doc = _prepare(doc, registry, problems)     # e.g. `map:` entries become blocks and connections
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema
     blocks = _instances(doc, registry, rate, problems)
     _stop_if_full(problems)
-    connections = _connections(doc, blocks, problems)
+    connections = connections_of(doc, blocks, problems)
     _stop_if_full(problems)
     devices = _check_whole(doc, blocks, rate, problems)
     order = schedule(blocks, connections, problems)
@@ -189,7 +99,7 @@ def _check_whole(doc, blocks, rate, problems):
         problems.add(extra.line, f"block {extra.name!r}: a patch has at most one audio_out "
                                  f"(the first is {audio[0].name!r})")
     devices = doc.get("devices") if isinstance(doc.get("devices"), LDict) else LDict()
-    _check_bound_blocks(devices, blocks, problems)
+    check_bound_blocks(devices, blocks, problems)
     _stop_if_full(problems)
     items = kernel_cost(blocks)
     if items > MAX_BLOCKS:
@@ -241,8 +151,8 @@ def _apply_overrides(doc, overrides, registry, problems):
             continue
         if not isinstance(blocks, LDict) or not isinstance(blocks.get(block), LDict):
             have = list(blocks) if isinstance(blocks, LDict) else []
-            problems.add(1, f"--set {text!r}: the patch has no block named {block!r}{_suggest(block, have)}; "
-                            f"its blocks: {_names(have)}")
+            problems.add(1, f"--set {text!r}: the patch has no block named {block!r}{suggest(block, have)}; "
+                            f"its blocks: {name_list(have)}")
             continue
         entry = blocks[block]
         line = blocks.lines.get(block, entry.line)
@@ -251,7 +161,7 @@ def _apply_overrides(doc, overrides, registry, problems):
             public = [n for n, p in cls.params.items() if not p.internal]
             if param not in public:
                 problems.add(line, f"--set {text!r}: block {block!r} ({cls.type_name}) has no parameter "
-                                   f"{param!r}{_suggest(param, public)}; its parameters: {_names(public)}")
+                                   f"{param!r}{suggest(param, public)}; its parameters: {name_list(public)}")
                 continue
         inner = Collector(problems.file)
         ok, value = parse_value(raw, inner, line)
@@ -272,21 +182,11 @@ def _bare_set(text, block, blocks, registry):
         public = [n for n, p in cls.params.items() if not p.internal]
         return (blocks.lines.get(block, entry.line),
                 f"--set {text!r}: expected BLOCK.PARAM=VALUE; block {block!r} ({cls.type_name}) has the "
-                f"parameters: {_names(public)}")
+                f"parameters: {name_list(public)}")
     if block and block.isidentifier() and block not in have:
         return 1, (f"--set {text!r}: expected BLOCK.PARAM=VALUE; the patch has no block named "
-                   f"{block!r}{_suggest(block, have)}; its blocks: {_names(have)}")
+                   f"{block!r}{suggest(block, have)}; its blocks: {name_list(have)}")
     return 1, f"--set {text!r}: expected BLOCK.PARAM=VALUE"
-
-
-def _connection_problem(text):
-    left, arrow, right = text.partition("->")
-    if arrow:
-        for side in (left, right):
-            reason = Endpoint.problem(side)
-            if reason and "cell index" in reason:
-                return f"cannot read {text.strip()!r}: {reason}"
-    return f"cannot read {text!r}: write \"block.port -> block.port\""
 
 
 def _instances(doc, registry, rate, problems):

@@ -3,24 +3,23 @@
 forces wired into it), resolved to the IR node the kernel records."""
 import re
 
-from .errors import name_list, suggest
-from .ir import Sum
+from .errors import PlanError, name_list, suggest
+from .ir import Total
+from .model import Endpoint
 
 _BARE = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(\[[^\]]*\])?\s*")   # a block (or cell) without `.PORT`
 
 
 def resolve_probe(prog, probe):
     """The IR node probe `probe` records; PlanError naming the probe if it names nothing."""
-    from .patch import Endpoint, _names, _suggest
-    from .program import PlanError
     end = Endpoint.parse(probe)
     if end is None:
         raise PlanError(f"probe {probe!r}: {_bare_problem(prog, probe) or Endpoint.problem(probe)}")
     bp = prog.by_name.get(end.block)
     if bp is None:
         names = list(prog.by_name)
-        raise PlanError(f"probe {probe!r}: no block named {end.block!r}{_suggest(end.block, names)}; "
-                        f"its blocks: {_names(names)}")
+        raise PlanError(f"probe {probe!r}: no block named {end.block!r}{suggest(end.block, names)}; "
+                        f"its blocks: {name_list(names)}")
     gs = prog.group_of.get(end.block)
     if gs is not None and (end.index is not None or end.port in gs.family.point_ports):
         return _point(prog, gs, bp, end, probe)
@@ -30,7 +29,6 @@ def resolve_probe(prog, probe):
 
 
 def _point(prog, gs, bp, end, probe):
-    from .program import PlanError
     ports = gs.family.point_ports
     message = None
     if end.index is not None or gs.point(end) is None:
@@ -46,18 +44,16 @@ def _point(prog, gs, bp, end, probe):
         raise PlanError(f"probe {probe!r}: {message}")
     if ports[end.port] == "input" and bp.inst.output(end.port) is None:
         return gs.driven(end)
-    return Sum((gs.element(end),))
+    return Total((gs.element(end),))
 
 
 def _port(prog, bp, end, probe):
-    from .patch import Endpoint, _suggest
-    from .program import PlanError
     block, port = end.block, end.port
     if bp.inst.output(port) is not None:
-        return Sum((prog.source(Endpoint(block, None, port)),))
+        return Total((prog.source(Endpoint(block, None, port)),))
     for p in bp.inst.inputs:
         if p.name == port:
-            return Sum(bp.inputs.get(port, ()))
+            return Total(bp.inputs.get(port, ()))
     if port in bp.cls.params and bp.cls.params[port].live:
         return prog.param_binding(bp, port)
     for i, s in enumerate(bp.cls.states):
@@ -65,7 +61,7 @@ def _port(prog, bp, end, probe):
             return bp.state_nodes[i]
     names = _probe_names(bp)
     raise PlanError(f"probe {probe!r}: block {block!r} ({bp.cls.type_name}) has no port or state "
-                    f"{port!r}{_suggest(port, names)}; it has: {', '.join(names) or 'none'}")
+                    f"{port!r}{suggest(port, names)}; it has: {', '.join(names) or 'none'}")
 
 
 def _probe_names(bp):

@@ -8,17 +8,19 @@ state slot, a cell's position, a device column, ...), which says its meaning for
 
 import numpy as np
 
-from ..blocks.definition import arguments as _arguments
+from ..blocks.vocabulary import arguments
+from .blockplan import BlockPlan, freeze
+from .codegen import module_names
+from .errors import PlanError
 from .family import GroupStep, groups
-from .ir import (ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Literal, Live, Names, Output,
-                 StateSlot, Sum)
-from .blockplan import BlockPlan, _freeze
 from .guard import Guard
+from .identifiers import note
+from .ir import (ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Literal, Live, Names, Output,
+                 StateSlot, Total)
 from .items import schedule_items
+from .probes import resolve_probe
 
-
-class PlanError(Exception):
-    pass
+__all__ = ["PlanError", "Program"]
 
 
 class Program:
@@ -36,7 +38,7 @@ class Program:
             self._bind_device(bp)
         built = [(family, family.build(members, self.fs, editable)) for family, members in groups(patch.blocks)]
         built = [(family, g) for family, g in built if g is not None]
-        self.names = Names(_module_names(self.plans, [g for _, g in built]))
+        self.names = Names(module_names(self.plans, [g for _, g in built]))
         for bp in self.plans:
             bp.ident = self.names.prefix(bp.index, bp.name)
         self.numbers, self.number_nodes, self._numbered = [], [], {}
@@ -92,18 +94,16 @@ class Program:
         # per sample when a connection drives a live parameter derive reads; else at control rate,
         # into coef slots (re-derived by set_param when it reads a live one)
         bp.coef_mode = "per_sample" if live_read & set(bp.live_sources) else "slot"
-        bp.coefs = {k: _freeze(v) for k, v in bp.cls.derive(p, self.fs).items()}
+        bp.coefs = {k: freeze(v) for k, v in bp.cls.derive(p, self.fs).items()}
         if bp.coef_mode != "slot":
             return
         for k, v in bp.coefs.items():
+            if k in bp.cls.structure:
+                # declared structure (a flag, a choice): a literal numba folds (graph/codegen.py
+                # names it); set_param refuses to change it
+                continue
             if isinstance(v, tuple):   # an array coefficient: rewritten in place
                 bp.coef_arrays[k] = self.array(v, bp.ident, k)
-            elif not live_read and (isinstance(v, (bool, float))):
-                # a flag or a filter coefficient fixed by the patch: a literal numba folds (0.0
-                # and 1.0 terms vanish; as data they cost a register each: the waveguide string
-                # ran 1.5x slower). Whole numbers a derive returns (a delay's length in samples,
-                # a pulse's width) are sizes: data.
-                continue
             else:
                 bp.coef_slots[k] = len(self.numbers)
                 bp.coef_nodes[k] = Coef(len(self.numbers), Coef.kind_of(v), self._local("coef", bp, k))
@@ -117,7 +117,7 @@ class Program:
         for bp in self.plans:
             if getattr(bp.cls, "audio_sink", False):
                 for port in bp.inst.inputs:
-                    self.records.append((f"{bp.name}.{port.name}", Sum(bp.inputs.get(port.name, ()))))
+                    self.records.append((f"{bp.name}.{port.name}", Total(bp.inputs.get(port.name, ()))))
                 self.channels = len(bp.inst.inputs)
         for probe in probes:
             self.records.append((probe, self.resolve_probe(probe)))
@@ -128,7 +128,7 @@ class Program:
             for port in bp.inst.inputs:
                 if getattr(port, "sends", False):
                     self.device_records.append((bp.device, len(self.records)))
-                    self.records.append((f"{bp.name}.{port.name} -> {bp.device}", Sum(bp.inputs.get(port.name, ()))))
+                    self.records.append((f"{bp.name}.{port.name} -> {bp.device}", Total(bp.inputs.get(port.name, ()))))
 
     def _bind_device(self, bp):
         refs = [n for n, p in bp.cls.params.items() if p.refers == "devices"]
@@ -150,7 +150,7 @@ class Program:
         bp.cls, bp.values, bp.device = cls, values, device
         offset = len(self.ext_columns)
         columns = list(driver.columns)
-        used = set(_arguments(cls.output) if cls.output else ()) | set(_arguments(cls.update) if cls.update else ())
+        used = set(arguments(cls.output) if cls.output else ()) | set(arguments(cls.update) if cls.update else ())
         for e in cls.externals:
             if e.attr not in used:
                 continue
@@ -246,11 +246,11 @@ class Program:
     def _static(self, value, bp, attr):
         """A parameter that is not live: flags and choices are structure (literals in the source),
         numbers and tables are data (a coef slot, an array), so editing them re-uses the kernel."""
-        value = _freeze(value)
+        value = freeze(value)
         if isinstance(value, tuple):
             return self.array(value, bp.ident, attr)
         if isinstance(value, (bool, str)) or value is None:
-            return Literal(value)
+            return Literal(value, f"{note(bp.name)}: {attr}")
         return self.number(value, Coef.kind_of(value), bp.ident, attr)
 
     def param_binding(self, bp, name):
@@ -259,7 +259,7 @@ class Program:
         param = bp.cls.params[name]
         if param.live:
             if name in bp.live_sources:
-                return Sum(bp.live_sources[name])
+                return Total(bp.live_sources[name])
             return bp.live_nodes[name]
         key = ("static", bp.index, name)        # one array or slot, whichever functions read it
         if key not in self._numbered:
@@ -269,7 +269,7 @@ class Program:
     def _bind(self, bp, fn, which):
         if fn is None:
             return ()
-        return tuple(self._argument(bp, arg, which) for arg in _arguments(fn))
+        return tuple(self._argument(bp, arg, which) for arg in arguments(fn))
 
     def _argument(self, bp, arg, which):
         """The IR node a block function's argument `arg` binds to."""
@@ -282,7 +282,7 @@ class Program:
         if arg == "fs":
             return self.rate_node()
         if arg in ports_in:
-            return Sum(bp.inputs.get(ports_in[arg], ()))
+            return Total(bp.inputs.get(ports_in[arg], ()))
         if arg in cls.params:
             return self.param_binding(bp, arg)
         if arg in states:
@@ -293,7 +293,7 @@ class Program:
             # a ring's capacity (a power of two) is structure: its mask as a literal keeps a
             # register free in the sample loop (15 % on the waveguide benchmark); the delay
             # length inside it is data
-            return Literal(len(self.buffers[buffers[arg[:-5]]]) - 1)
+            return Literal(len(self.buffers[buffers[arg[:-5]]]) - 1, f"{note(bp.name)}: {arg[:-5]} ring mask")
         if arg in bp.ext:
             return Column(bp.ext[arg])
         if which == "update" and arg in {o.attr for o in cls.outputs}:
@@ -305,13 +305,11 @@ class Program:
                 return bp.coef_nodes[arg]
             if arg in bp.coef_arrays:
                 return bp.coef_arrays[arg]
-            value = bp.coefs[arg]
-            return Literal(value) if isinstance(value, (bool, float)) else self._static(value, bp, arg)
+            return Literal(bp.coefs[arg], f"{note(bp.name)}: {arg}")     # declared structure
         raise PlanError(f"block {bp.name!r} ({cls.type_name}): {which}() argument {arg!r} is bound to nothing")
 
     # -- probes and control-rate changes ----------------------------------------------------------
     def resolve_probe(self, probe):
-        from .probes import resolve_probe
         return resolve_probe(self, probe)
 
     def edit_cell(self, block, index, action, apply=True):
@@ -344,21 +342,31 @@ class Program:
                 raise PlanError(f"{value:g} is outside the range of {block}.{name}")
 
     def set_param(self, block, name, value):
-        """Change a live parameter between kernel calls (control rate): re-derives coefficients."""
-        self.check_set(block, name, float(value))
-        bp = self.by_name[block]
+        """Change a live parameter between kernel calls (control rate): re-derives coefficients.
+        PlanError, and nothing changed, if it would change the kernel's structure (a value its
+        block declares `structure`, a table's length): that needs a recompile."""
         value = float(value)
+        self.check_set(block, name, value)
+        bp = self.by_name[block]
+        derived = self._rederived(bp, name, value) if bp.coef_mode == "slot" else {}
         bp.values[name] = value
         self.live[bp.live[name]] = value
-        if bp.coef_mode == "slot":
-            for k, v in bp.cls.derive(bp.params(), self.fs).items():
-                if k in bp.coef_slots:
-                    self.coef[bp.coef_slots[k]] = float(v)
-                elif k in bp.coef_arrays:
-                    target = self.arrays[bp.coef_arrays[k].index]
-                    if len(v) != len(target):
-                        raise PlanError(f"{block}.{name}: its coefficient {k!r} changes length; that needs a recompile")
-                    target[:] = v
+        for k, v in derived.items():
+            if k in bp.coef_slots:
+                self.coef[bp.coef_slots[k]] = float(v)
+            elif k in bp.coef_arrays:
+                self.arrays[bp.coef_arrays[k].index][:] = v
+
+    def _rederived(self, bp, name, value):
+        """What derive gives with `name` = value; PlanError if that changes the structure."""
+        derived = bp.cls.derive(bp.params()._replace(**{name: value}), self.fs)
+        for k, v in derived.items():
+            if k in bp.cls.structure and freeze(v) != bp.coefs[k]:
+                raise PlanError(f"{bp.name}.{name} = {value:g} changes {k!r}, part of the kernel's structure; "
+                                "that needs a recompile")
+            if k in bp.coef_arrays and len(v) != len(self.arrays[bp.coef_arrays[k].index]):
+                raise PlanError(f"{bp.name}.{name}: its coefficient {k!r} changes length; that needs a recompile")
+        return derived
 
     # -- the state a block carries (what a reload keeps) ------------------------------------------
     def state_views(self, block):
@@ -387,12 +395,3 @@ class Program:
         if bp is None:
             raise PlanError(f"no block named {block!r}")
         return bp
-
-
-def _module_names(plans, built):
-    """The names the kernel module defines: each block type's functions, each group's step."""
-    names = {g.step()[0].__name__ for g in built}
-    for bp in plans:
-        t = bp.cls.type_name
-        names |= {f"{t}_type", f"{t}_type_module", f"{t}_derive", f"{t}_output", f"{t}_update"}
-    return names

@@ -1,13 +1,6 @@
 """The JSON Schema of a patch, assembled from every registered block type's declarations."""
-
-# Patterns are ECMA-262 (for editors) and read by Python's re.search, whose `$` also matches
-# before a final newline: `(?![\s\S])` anchors at the very end in both, so a name is matched whole.
-END = r"(?![\s\S])"
-IDENT = rf"^[A-Za-z_][A-Za-z0-9_]*{END}"
-WHOLE = r"-?[0-9]{1,18}(\.0*)?"    # blocks.numbers.WHOLE_TEXT: 2 or 2.0, never 2.5
-INDEX = rf"\[ *{WHOLE} *(, *{WHOLE} *)*\]"
-ENDPOINT = rf"[A-Za-z_][A-Za-z0-9_]*({INDEX})?\.[A-Za-z_][A-Za-z0-9_]*"
-CONNECTION = rf"^\s*{ENDPOINT}\s*->\s*{ENDPOINT}\s*{END}"
+from .patterns import CONNECTION, END, ENDPOINT, IDENT, INDEX, WHOLE  # noqa: F401  (the patterns the schema uses)
+from .voices import voices_schema
 
 
 def device_schema(drivers):
@@ -46,7 +39,6 @@ def _sections(drivers):
 
 
 def patch_schema(registry):
-    from .voices import voices_schema
     names = sorted(registry.types)
     defs = {name: registry.types[name].schema() for name in names}
     block = {

@@ -23,23 +23,20 @@ later in a copy are reported once, at the template's line, under the template's 
 """
 import re
 
-
+from .explain import describe, whole_errors
+from .model import Endpoint
+from .patterns import CONNECTION, IDENT
 from .source import LDict, LList, line_of
-from .validate import _describe, whole_errors
 
 SECTION = "voices"
 DEFAULT_PREFIX = "v"     # v1_NAME, v2_NAME, … (a name prefix, not the port named v)
 MAX_VOICES = 128
-# blocks and connections the copies may add, checked before copying: a small file must not
-# become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
-MAX_COPIES = 20_000
 
 
 def voices_schema(block=None):
     """The section's JSON Schema; `block` (a block's schema) checks the template's blocks and
     the connections' syntax too (the published schema); without it, only the section's shape
     (the loader's first look: the copies are checked as blocks and connections of the patch)."""
-    from .schema import CONNECTION, IDENT
     connection = {"type": "string", "pattern": CONNECTION} if block is not None else {"type": "string"}
     return {
         "type": "object", "required": ["count", "blocks"], "additionalProperties": False,
@@ -53,6 +50,11 @@ def voices_schema(block=None):
             "connect": {"type": "array", "items": connection},
         },
     }
+
+
+# blocks and connections the copies may add, checked before copying: a small file must not
+# become a large document (the kernel's own limit, MAX_BLOCKS in graph/patch.py, comes later)
+MAX_COPIES = 20_000
 
 
 def expand(doc, registry, problems):
@@ -94,7 +96,7 @@ def _read(doc, registry, problems):
     errors = list(whole_errors(voices_schema(), section))
     for err in errors:
         path = [SECTION] + list(err.absolute_path)
-        problems.add(line_of(doc, path), _describe(err, path, doc, registry))
+        problems.add(line_of(doc, path), describe(err, path, doc, registry))
     if errors:
         return None
     count, blocks = section["count"], section["blocks"]
@@ -121,7 +123,6 @@ def _numbered(spec, k, count, registry):
 
 def _connect(connect, count, prefix, names, out, problems):
     """Each template connection once per voice, its template ends renamed."""
-    from .patch import Endpoint
     for text, line in zip(connect, connect.lines):
         left, _, right = text.partition("->")
         ends = (Endpoint.parse(left), Endpoint.parse(right))

@@ -1,12 +1,13 @@
 """Connections: `block.port -> block.port` (a point of a fused group as `name[i, j].port`), each
 end checked against the block's ports, live parameters and points, with a FILE:LINE problem
 naming the block and port at fault."""
-from .errors import _suggest
+from .errors import suggest
+from .model import Connection, Endpoint
 from .source import LDict, LList
 
 
-def _connections(doc, blocks, problems):
-    from .patch import Connection, Endpoint
+def connections_of(doc, blocks, problems):
+    """The patch's connections (Connection), each end checked; problems reported at their lines."""
     conns = doc.get("connect")
     out = []
     if not isinstance(conns, LList):
@@ -25,7 +26,7 @@ def _connections(doc, blocks, problems):
         for end, role in ((src, "output"), (dst, "input")):
             if end.block not in names:
                 problems.add(line, f"connection {text.strip()!r}: no block named {end.block!r}"
-                                   f"{_suggest(end.block, names)}")
+                                   f"{suggest(end.block, names)}")
                 ok = False
                 continue
             inst = blocks.get(end.block)
@@ -71,6 +72,6 @@ def _check_endpoint(inst, end, role, text, line, problems):
         msg = f"parameter {end.port!r} of block {inst.name!r} ({cls.type_name}) is not live, so it is not an input"
     else:
         msg = (f"block {inst.name!r} ({cls.type_name}) has no {role} {end.port!r}"
-               f"{_suggest(end.port, ports)}; its {role}s: {', '.join(ports) or 'none'}")
+               f"{suggest(end.port, ports)}; its {role}s: {', '.join(ports) or 'none'}")
     problems.add(line, f"connection {text!r}: {msg}")
     return False

@@ -45,7 +45,7 @@ def main(argv=None):
     told = args.command in ("run", "play", "plot", "check") and not getattr(args, "quiet", False)
     if told:
         from .graph import kernel
-        kernel.notice = _compile_notice     # a cold compile says so at once; a cache hit says nothing
+        kernel.set_notice(_compile_notice)     # a cold compile says so at once; a cache hit says nothing
     try:
         return _command(args.command)(args)
     except PatchError as exc:
@@ -68,7 +68,7 @@ def main(argv=None):
         return 1
     finally:
         if told:
-            kernel.notice = None
+            kernel.set_notice(None)
 
 
 __all__ = ["COMMANDS", "PatchError", "UsageError", "main"]

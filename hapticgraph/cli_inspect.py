@@ -69,7 +69,7 @@ def cmd_check(args):
     if any(origin.get(inst.cls.type_name) != "built-in" for inst in patch.blocks.values()):
         # plugins are the only code a patch runs: each plugin block is compiled on its own here, so
         # a body numba cannot compile fails `check` at the plugin's line, not `run` in another block
-        from .graph.kernel import plugin_problems
+        from .graph.isolate import plugin_problems
         problems = plugin_problems(patch)
         if problems:
             raise PatchError(problems)

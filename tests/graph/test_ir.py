@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from hapticgraph import render
 from hapticgraph.graph.ir import (ArrayItem, ArrayRef, BufferItem, BufferRef, Coef, Column, Counter, DerivedCoef, Frame,
-                                  Inverse, KernelSourceError, Literal, Live, Output, StateSlot, Sum)
+                                  Inverse, KernelSourceError, Literal, Live, Output, StateSlot, Total)
 from hapticgraph.graph.modes import discrete_frequency
 from hapticgraph.graph.patch import load
 
@@ -75,7 +75,7 @@ def _tree(draw, frame, depth, derived=True):
         return _leaf(draw, derived)
     if kind == "sum":
         n = draw(st.integers(0, 4))
-        return Sum(tuple(_tree(draw, frame, depth - 1, derived) for _ in range(n)))
+        return Total(tuple(_tree(draw, frame, depth - 1, derived) for _ in range(n)))
     of = _tree(draw, frame, depth - 1, derived)
     if of.value(frame) == 0:
         of = Literal(draw(st.sampled_from([2.0, -3, 0.1])))
@@ -158,12 +158,12 @@ def test_numba_compiles_the_emitted_expressions_to_the_interpreted_values(ctx, d
 
 
 def test_inverse_of_a_sum_is_parenthesised():
-    mass = Inverse(Sum((Output(0, "out"), Output(1, "out"))))
+    mass = Inverse(Total((Output(0, "out"), Output(1, "out"))))
     assert mass.emit() == "1.0 / (o0_out + o1_out)"
     assert Inverse(Live(2)).emit() == "1.0 / l2"
-    assert Sum((Live(0), Sum((Live(1), Live(2))))).emit() == "l0 + (l1 + l2)"
-    assert Sum((Literal(-1.5), Literal(math.inf), Literal(-math.inf))).emit() == "(-1.5) + math.inf + (-math.inf)"
-    assert Sum(()).emit() == "0.0" and Sum((Inverse(Live(0)),)).emit() == "1.0 / l0"
+    assert Total((Live(0), Total((Live(1), Live(2))))).emit() == "l0 + (l1 + l2)"
+    assert Total((Literal(-1.5), Literal(math.inf), Literal(-math.inf))).emit() == "(-1.5) + math.inf + (-math.inf)"
+    assert Total(()).emit() == "0.0" and Total((Inverse(Live(0)),)).emit() == "1.0 / l0"
 
 
 def test_names_in_emitted_code_are_identifiers_only():
