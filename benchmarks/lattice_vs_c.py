@@ -88,7 +88,7 @@ def patch_text(kind):
 # the C program
 # ---------------------------------------------------------------------------------------------
 C_SOURCE = r"""
-/* Hand-written half-step mass-spring updates: the same arithmetic as blocks/lattice.py's
+/* Hand-written half-step mass-spring updates: the same arithmetic as blocks/massspring's
    string_step, sheet_step and network_step, and the pluck and the recorded cell of the
    benchmark's patches. Usage: lattice MODE DIR SAMPLES REPS (MODE: string | sheet | csr). */
 #include <math.h>

@@ -7,6 +7,7 @@ Sign conventions shared by every block here: waves are velocity waves (m/s); a j
 """
 import math
 
+from .curves import friction_curve, table_lookup
 from .vocabulary import Block, Buffer, In, Out, Param, State, helper  # noqa: F401
 
 _IMPEDANCE_DOC = "wave impedance R0 of the string at the junction (a force F launches F/(2R0) each way)"
@@ -221,29 +222,6 @@ class Plucker(Block, name="plucker"):
         return e, s
 
 
-@helper
-def _friction(dv, mus, mud, v0, eps):
-    """Hyperbolic friction curve, odd in dv, its sign jump smoothed over |dv| ≲ eps."""
-    w = math.sqrt(dv * dv + eps * eps)
-    if w == 0.0:
-        return 0.0
-    a = abs(dv)
-    mu = mud + (mus - mud) * v0 / (v0 + a) if v0 + a > 0.0 else mus
-    return dv / w * mu
-
-
-@helper
-def _lookup(table, u):
-    """Linear interpolation in `table` at fractional index u, the end values held outside."""
-    last = len(table) - 1
-    if u <= 0.0:
-        return table[0]
-    if u >= last:
-        return table[last]
-    i = int(u)
-    return table[i] + (u - i) * (table[i + 1] - table[i])
-
-
 class Bow(Block, name="bow"):
     """force = max(pressure, 0)·μ(bow_velocity − v), μ(Δv) = Δv/√(Δv² + ε²)·(μd + (μs − μd)·v0/(v0 + |Δv|)), or μ from `table`.  Ref: Berdahl et al. 2009 Sec. 3.2; Woodhouse & Galluzzo, Acta Acustica 90 (2004).
 
@@ -293,7 +271,7 @@ class Bow(Block, name="bow"):
                mu_table, use_table, v_lo, v_scale):
         dv = bow_velocity - v
         if use_table:
-            mu = _lookup(mu_table, (dv - v_lo) * v_scale)
+            mu = table_lookup(mu_table, (dv - v_lo) * v_scale)
         else:
-            mu = _friction(dv, static_friction, dynamic_friction, slip_velocity, smoothing)
+            mu = friction_curve(dv, static_friction, dynamic_friction, slip_velocity, smoothing)
         return max(pressure, 0.0) * mu

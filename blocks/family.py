@@ -14,6 +14,11 @@ kernel arguments and the interpreter into Python values, one meaning for both:
   Control(block, param, inverse)  the live value of a member's parameter, or the sum of the
                               connections driving it; 1/value when `inverse`
 A family's `check` reports with `problems.add(line, message)`.
+
+A group is built once per load: each loaded instance carries `built`, a dict in which a family
+may keep what it built for the group the instance leads (the mass-spring family keeps its Network
+there, so its stability check, the Program and `hapticgraph modes` share one). A group that
+offers a linear model subclasses LinearGroup.
 """
 from dataclasses import dataclass
 
@@ -154,6 +159,39 @@ class Group:
         """Change a point between kernel calls (e.g. lock, unlock, cut); ValueError if refused;
         `apply=False`: only the check."""
         raise ValueError(f"{block}: this group cannot be edited while playing")
+
+
+class LinearGroup(Group):
+    """A Group whose first `n` points move by a linear model, M·x″ = −K·x (damping and live
+    inputs aside): what `hapticgraph modes` and `plot --mode` read. A family's group offers it by
+    subclassing this (the mass-spring Network does)."""
+
+    n = 0                     # the number of points the model covers: the group's first n
+
+    def bodies(self):
+        """Names of the members whose points the model covers, in patch order."""
+        raise NotImplementedError
+
+    def links(self):
+        """Names of the members that join them."""
+        return []
+
+    def masses(self):
+        """Per point: its mass [kg]; inf for a point that never moves (locked)."""
+        raise NotImplementedError
+
+    def stiffness_matrix(self):
+        """K (n × n, scipy sparse) at the members' patch values."""
+        raise NotImplementedError
+
+    def notes(self, connections):
+        """What the lossless linear model leaves out here, given the patch's connections."""
+        return []
+
+    def shape_of(self, block, x):
+        """A vector `x` over the n points seen on `block`'s points: an array of its shape (NaN
+        where it has no point)."""
+        raise NotImplementedError
 
 
 def touching(members, joins):

@@ -82,6 +82,8 @@ class Instance:
     index: int
     inputs: tuple = field(init=False, compare=False)
     outputs: tuple = field(init=False, compare=False)
+    # what its family built at load for the group it leads (blocks/family.py): one network per load
+    built: dict = field(init=False, compare=False, repr=False, default_factory=dict)
 
     def __post_init__(self):
         inputs, outputs = self.cls.ports(self.values)

@@ -36,9 +36,11 @@ has rigid-body modes at ω = 0: they are REPORTED as 0 Hz modes, first in the li
 `rigid`, so the count of modes asked for includes them.
 """
 import math
+import os
 
 import numpy as np
 
+from ..blocks.family import LinearGroup
 from .family import groups
 
 DENSE_MAX = 800           # movable cells up to which the dense solver is always used
@@ -185,10 +187,10 @@ def eigen_omegas(net, count, method=None):
 
 
 def _linear_groups(patch, editable=False):
-    """(members, group) of every fused group with a linear model (masses, stiffness_matrix)."""
+    """(members, group) of every fused group with a linear model (a LinearGroup)."""
     for family, members in groups(patch.blocks):
         group = family.build(members, patch.rate, editable)
-        if group is not None and hasattr(group, "stiffness_matrix"):
+        if isinstance(group, LinearGroup):
             yield members, group
 
 
@@ -222,7 +224,7 @@ def modal_frequencies(patch, count=20):
     """{network name: [f_d in Hz, ascending]}: the `count` lowest modes of each mass-spring
     network of `patch` (a Patch or a path), with the half-step scheme's discrete-time correction;
     damping ignored; rigid-body modes of a free network reported as 0.0 Hz."""
-    if not hasattr(patch, "blocks"):
+    if isinstance(patch, (str, os.PathLike)):
         from .patch import load
         patch = load(patch)
     return {m.name: m.frequencies for m in network_modes(patch, count)}

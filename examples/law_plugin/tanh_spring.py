@@ -1,13 +1,13 @@
 """A plugin link law: a saturating spring, F = limit·tanh(tension·d / limit), in about 30 lines.
 
 A Law (its name, the parameters it reads, a @helper force function, its stiffest slope) and a
-link block of the mass-spring family that uses it; nothing in hapticgraph's graph/ changes.
+link block of the mass-spring family that uses it (a Link: `law_of` names the law); nothing in
+hapticgraph's graph/ changes.
 """
 import math
 
 from hapticgraph.blocks import Block, Param, helper
-from hapticgraph.blocks.laws import Law
-from hapticgraph.blocks.network import MassSpring
+from hapticgraph.blocks.massspring import Law, Link, MassSpring
 
 
 @helper
@@ -26,7 +26,7 @@ class TanhLaw(Law):
         return values["tension"]          # the steepest point is d = 0
 
 
-class TanhSpring(Block, name="tanh_spring"):
+class TanhSpring(Link, Block, name="tanh_spring"):
     """F = limit·tanh(tension·(x_b − x_a)/limit) on cell a and −F on cell b (a saturating spring)."""
 
     a = Param("", doc="a cell")

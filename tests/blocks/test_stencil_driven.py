@@ -4,7 +4,7 @@ cells, both in Python (the interpreter's way) and compiled."""
 import numba
 import numpy as np
 import pytest
-from hapticgraph.blocks import lattice
+from hapticgraph.blocks.massspring import stencils
 from hapticgraph.blocks.vocabulary import register_helpers
 
 
@@ -41,7 +41,7 @@ def test_stencil_reads_forces_only_where_driven(shape, driven, fixed, compiled):
     frc, ref_frc = np.zeros(n), np.zeros(n)
     drv = np.array(driven, dtype=np.int64)
     args = (1000.0, 50.0, 0.02, 1 / 44100, fixed)
-    step = (lattice.string_step, lattice.sheet_step, lattice.cube_step)[len(shape) - 1]
+    step = (stencils.string_step, stencils.sheet_step, stencils.cube_step)[len(shape) - 1]
     if compiled:
         register_helpers()
         step = numba.njit(step)

@@ -23,7 +23,7 @@ import scipy.signal
 
 from hapticgraph import load, render
 from hapticgraph.devices import open_drivers
-from hapticgraph.blocks.network import Network
+from hapticgraph.blocks.massspring import Network
 
 PATCHES = pathlib.Path(__file__).resolve().parents[2] / "patches"
 BABE = PATCHES / "babe_is_sleeping.yaml"

@@ -1,8 +1,9 @@
-"""Energy-consistent Hunt–Crossley contact: the `contact` link law and the `hammer` law.
+"""Energy-consistent Hunt–Crossley contact: the `contact` link law and the `hammer` law
+(ContactLaw, HammerLaw).
 
 Penetration δ (δ > 0: in contact), potential V(δ) = k·δ^(α+1)/(α+1) for δ > 0, else 0, and
 force F = k·δ^α + λ·δ^α·δ̇ (never negative). Both laws run after `network_step` ("post" phase,
-blocks/laws.py) in the discrete-gradient form (Chatziioannou & van Walstijn 2015; Bilbao,
+laws.py) in the discrete-gradient form (Chatziioannou & van Walstijn 2015; Bilbao,
 Numerical Sound Synthesis, ch. 4):
 
     F[n] = max(0, (V(δ[n+1]) − V(δ[n−1])) / (δ[n+1] − δ[n−1]) + λ·δ[n]^α·(δ[n+1] − δ[n−1])/(2·dt))
@@ -18,7 +19,7 @@ A contact on a point without mass (ground, a driven point) takes that point's x�
 x[n] + dt·v[n−½]. Contacts sharing a cell are solved one after the other (each exact for the
 positions the previous ones left): energy is then conserved to the solver's residual only.
 """
-from .vocabulary import helper
+from ..vocabulary import helper
 from .laws import Law
 
 TINY = 1e-9      # |δ[n+1] − δ[n−1]| below TINY·(|δ[n+1]| + |δ[n−1]|): V′ at the midpoint
@@ -126,7 +127,7 @@ def contact_links(pos, vel, frc, inv_m, scale, cid, ia, ib, prm, io, dt):
         frc[io[j]] = f
 
 
-class Contact(Law):
+class ContactLaw(Law):
     """The unilateral Hunt–Crossley contact, energy-consistent (see the module)."""
 
     name = "contact"
@@ -173,7 +174,7 @@ def hammer_links(pos, vel, frc, inv_m, scale, cid, ia, ib, prm, io, dt):
         frc[io[j]] = f
 
 
-class Hammer(Law):
+class HammerLaw(Law):
     """A mass launched into a point through an energy-consistent Hunt–Crossley contact."""
 
     name = "hammer"

@@ -12,7 +12,7 @@ from hapticgraph.graph.kernel import generate
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.program import Program
 
-BELL = pathlib.Path(__file__).resolve().parent.parent / "examples" / "family_plugin" / "bell.yaml"
+BELL = pathlib.Path(__file__).resolve().parents[2] / "examples" / "family_plugin" / "bell.yaml"
 FREQS = (220.0, 563.2, 1012.0)
 
 

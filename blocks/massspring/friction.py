@@ -1,5 +1,5 @@
-"""The friction link law: the bow's friction curve (blocks/coupling.py, `bow`) between any two
-points of the mass-spring family.
+"""The friction link law (FrictionLaw): the bow's friction curve (blocks/curves.py, also the `bow`
+block's) between any two points of the mass-spring family.
 
 Δv = (v_a + velocity) − v_b: point a's surface moves at its own velocity plus the signal
 `velocity` (a bow: a = ground and velocity = the bow speed; a rubbing finger: a = a `point`
@@ -10,8 +10,8 @@ the curve's steepest |dF/dΔv| ≤ N·(μs/ε + (μs − μd)/v0) (the table's s
 N = max(normal, range), to the damping γ of both points: dt·γ/m < 2 keeps the sticking phase
 from chattering.
 """
-from .vocabulary import helper
-from .coupling import _friction, _lookup
+from ..curves import friction_curve, table_lookup
+from ..vocabulary import helper
 from .laws import Law
 
 
@@ -21,13 +21,13 @@ def friction_force(d, v, p):
     dv = p[1] - v
     n = int(p[6])
     if n >= 2:
-        mu = _lookup(p[9:9 + n], (dv - p[7]) * p[8])
+        mu = table_lookup(p[9:9 + n], (dv - p[7]) * p[8])
     else:
-        mu = _friction(dv, p[2], p[3], p[4], p[5])
+        mu = friction_curve(dv, p[2], p[3], p[4], p[5])
     return max(p[0], 0.0) * mu
 
 
-class Friction(Law):
+class FrictionLaw(Law):
     """The bow's friction curve as a link (see the module)."""
 
     name = "friction"

@@ -1,0 +1,110 @@
+"""The mass-spring network (blocks/massspring/network.py) is built once per load: the stability
+check, `hapticgraph modes` and the first Program share it, and a second Program of the same
+patch gets a network of its own, so both start from rest and play the same."""
+import pathlib
+
+import numpy as np
+import pytest
+
+from hapticgraph import PatchError, load, render
+from hapticgraph.blocks.family import LinearGroup
+from hapticgraph.blocks.massspring import network as network_module
+from hapticgraph.graph.modes import mode_blocks, mode_shape, modal_frequencies
+from hapticgraph.graph.program import Program
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+STRING = """
+hapticgraph: 1
+rate: 44100
+blocks:
+  str: {type: lattice, shape: [40], mass: 0.0002, tension: 20000.0}
+  hit: {type: pluck, time: 0.0, force: 1.0, duration: 0.0005}
+  out: {type: audio_out}
+connect:
+  - hit.out -> str[10].force
+  - str[30].position -> out.left
+"""
+
+
+@pytest.fixture
+def builds(monkeypatch):
+    """The Networks built from now on, in order."""
+    built = []
+    init = network_module.Network.__init__
+
+    def counted(self, *args, **kwargs):
+        built.append(self)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(network_module.Network, "__init__", counted)
+    return built
+
+
+def test_the_check_modes_and_the_program_share_one_network(write_patch, builds):
+    patch = load(write_patch(STRING))
+    assert len(builds) == 1                                   # the stability check's
+    modal_frequencies(patch, count=3)
+    assert mode_blocks(patch) == ["str"]
+    mode_shape(patch, "str", 1)
+    prog = Program(patch)
+    assert len(builds) == 1
+    assert prog.groups[0].group is builds[0]
+    assert isinstance(builds[0], LinearGroup)
+
+
+def test_a_second_program_runs_a_network_of_its_own(write_patch, builds):
+    patch = load(write_patch(STRING))
+    first = render(patch, 0.02)
+    second = render(patch, 0.02)
+    assert len(builds) == 2
+    assert builds[0].pos is not builds[1].pos
+    assert np.abs(first.audio).max() > 0
+    np.testing.assert_array_equal(first.audio, second.audio)
+
+
+def test_the_shared_network_takes_the_programs_path(write_patch, builds):
+    """The check's network steps on a stencil, or on the CSR lists when the Program is editable."""
+    patch = load(write_patch(STRING))
+    assert Program(patch, editable=True).groups[0].group.stencil is None
+    assert Program(patch).groups[0].group.stencil == "string"
+    assert len(builds) == 2
+
+
+def test_modes_read_only_groups_with_a_linear_model():
+    """The plugin family's bank (a Group, not a LinearGroup) has no modes to list."""
+    bell = load(ROOT / "examples" / "family_plugin" / "bell.yaml")
+    assert mode_blocks(bell) == [] and modal_frequencies(bell) == {}
+
+
+OLD_LINK = """
+from hapticgraph.blocks import Block, Param
+from hapticgraph.blocks.massspring import MassSpring
+
+
+class OldSpring(Block, name="old_spring"):
+    a = Param("")
+    b = Param("")
+    family = MassSpring
+
+    @staticmethod
+    def law_of(values):
+        return None
+"""
+
+
+def test_a_link_block_that_is_not_a_link_is_named(write_patch, tmp_path):
+    (tmp_path / "old.py").write_text(OLD_LINK)
+    path = write_patch("""
+        hapticgraph: 1
+        plugins: [old.py]
+        blocks:
+          c1: {type: cell}
+          c2: {type: cell}
+          s: {type: old_spring, a: c1, b: c2}
+        connect: []
+        """)
+    with pytest.raises(PatchError) as err:
+        load(path)
+    assert "block 's' (old_spring): a member of the mass-spring family is a cell, a lattice, a point or a link" \
+           in str(err.value)
+    assert "subclasses Link" in str(err.value)
