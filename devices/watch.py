@@ -1,7 +1,6 @@
 """`hapticgraph play --watch`: reload the patch when its file (or a plugin file) changes, keep the
 state of every unchanged block and the drivers of unchanged devices, and swap the new session in
 at a block boundary; a patch with errors is reported and the old one keeps playing."""
-import dataclasses
 import os
 import sys
 import threading
@@ -78,7 +77,7 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
             keep[inst.name] = old_drivers[inst.name]
         else:
             changed_inputs[inst.name] = inst
-    view = dataclasses.replace(new_patch, devices=changed_devices, blocks=changed_inputs)   # a Patch is frozen
+    view = new_patch.subset(changed_inputs.values(), devices=changed_devices)   # the part to open drivers for
     opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input,
                           running=keep)
     drivers = dict(keep)
