@@ -18,9 +18,11 @@ __version__ = "0.1.0"
 
 
 def _device_drivers():
-    """The driver kinds of hapticgraph.devices: what a patch's `devices:` entries may name. The
-    loader (graph/) imports nothing from devices/; this top floor hands them over."""
-    from .devices.kinds import driver_kinds
+    """The one table of drivers (hapticgraph.devices.table, read from the entry-point group
+    `hapticgraph.drivers`): what a patch's `devices:` entries may name. The loader (graph/)
+    imports nothing from devices/; this top floor hands the table over, when a patch is loaded
+    (imported then, to keep `import hapticgraph` light)."""
+    from .devices.table import driver_kinds
     return driver_kinds()
 
 

@@ -16,7 +16,7 @@ def build_parser():
                "exit status: 0 success, 2 a patch or command-line error, 1 anything else")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in (_add_run, _add_play, _add_devices, _add_check, _add_blocks, _add_schema, _add_graph, _add_plot,
-                _add_modes):
+                _add_modes, _add_studio):
         add(sub)
     for add in (_add_sweep, _add_fit):      # many renders on Dask (cli_sweep)
         add(sub)
@@ -194,6 +194,31 @@ def _add_modes(sub):
     modes.add_argument("--count", type=int, default=20, metavar="N", help="modes per network (default 20)")
     modes.add_argument("--json", action="store_true", help="machine-readable")
     _overrides(modes)
+
+
+# -- studio (issue 22): the design page --------------------------------------------------------
+def _add_studio(sub):
+    studio = _command(sub, "studio", "design an instrument in a browser page while it plays",
+                      "Serve a local page that shows the patch's instrument moving, shapes it with the mouse "
+                      "(lock, cut, join, place microphones and excitations, parameters) while it plays and "
+                      "saves every edit back into the patch with its comments kept. The first line printed is "
+                      "the page's URL with its token; the WebSocket protocol is in docs/studio.md.",
+                      ["hapticgraph studio patches/cymatic_block.yaml",
+                       "hapticgraph studio patches/cymatic_sheet.yaml --audio browser --no-browser",
+                       "hapticgraph studio my_string.yaml --audio none --port 8765"])
+    studio.add_argument("patch")
+    studio.add_argument("--host", default="127.0.0.1",
+                        help="address to serve on (default 127.0.0.1: this machine only)")
+    studio.add_argument("--port", type=int, default=0, help="port (default 0: any free one)")
+    studio.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    studio.add_argument("--audio", choices=("card", "browser", "none"), default=None,
+                        help="card: the sound card paces the sound, as play; browser: paced by the clock and "
+                             "played by the page; none: paced by the clock, silent (default: card when a sound "
+                             "card opens, else browser)")
+    studio.add_argument("--audio-device", metavar="D", help="with --audio card: the output device, as in play")
+    studio.add_argument("--blocksize", type=int, default=256, metavar="N", help="samples per block (default 256)")
+    studio.add_argument("--fps", type=float, default=60.0, help="most cell frames a second sent to a page (default 60)")
+    _device_option(studio)
 
 
 # -- sweep and fit: many renders on a Dask cluster (hapticgraph/cli_sweep.py) ---------------------
