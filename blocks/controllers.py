@@ -24,6 +24,22 @@ class MidiNote(Block, name="midi_note"):
                   doc="0: the keyboard's newest key; k ≥ 1: voice k of a polyphonic group (set by a voices: template)")
     voices = Param(1, minimum=1, maximum=MAX_VOICES, refers="voices",
                    doc="the group's number of voices: free voice first, else the oldest note is stolen")
+    notes = """Notes and voices (hapticgraph.devices.voices): a note belongs to its channel and key; a
+note-off (or a note-on of velocity 0, or all-notes-off of its channel) ends that note only, so
+two channels on one key are two notes. With `voices: N` (a `voices:` template), a note-on takes
+the voice holding the same note (a restrike), else a free voice (never used, else released
+longest ago: a released voice keeps its note and rings on), else it steals the voice holding
+the oldest note; so with more voices than notes sounding nothing is stolen, with fewer the
+oldest note is. Every change falls at its event's sample, ⌈t·rate⌉; a voice whose gate is up
+when it takes a new note (restruck, stolen) shows the onset with a one-sample dip *before* it:
+gate 0 at the sample before the note-on, 1 from the note-on's sample, so a pluck or an envelope
+starts again on time. A note-off and a note-on at one sample, in either order, leave the new
+note sounding (the note-off ends the note begun earlier; a note struck and released at one
+sample sounds for that sample). Pitch bend and channel pressure reach the voices of their
+channel, key pressure the voice holding the key. With `voice: 0` the block follows the newest
+note held (a release falls back to the newest still held, legato). A file, a live port and a
+replayed take give the same columns for the same events: a live event is placed within its
+block (a latency of one block and one sample) and a file is read one sample ahead."""
     midi_gate = External(doc="1 while a key is held")
     midi_note = External(doc="the sounding note number (last-note priority)")
     midi_bend = External(doc="pitch wheel, −1 … 1")

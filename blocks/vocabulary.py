@@ -209,6 +209,7 @@ class Block:
     states = ()      # State declarations, in order
     buffers = ()     # Buffer declarations, in order
     externals = ()   # External declarations, in order
+    notes = ""       # rules the block reference prints under the equation (what a table cannot say)
     # The names of derive's values that are the kernel's structure: compiled in as literals (a
     # flag, a choice), so numba folds their branches and changing one compiles another kernel.
     # Every other value derive returns is data: a number is read from an array (editing it

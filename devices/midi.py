@@ -18,6 +18,7 @@ import os
 import threading
 from fractions import Fraction
 
+from .errors import DeviceError
 from .events import Hub, Tap
 from .voices import CHANNEL_MESSAGES, Allocator, VoiceTap, resolve
 
@@ -28,7 +29,6 @@ JOIN = 1.0                  # seconds a closing port waits for its reading threa
 
 
 def _error(message):
-    from . import DeviceError
     return DeviceError(message)
 
 
@@ -242,12 +242,17 @@ class NoteTap(Tap):
             if m.type in CHANNEL_MESSAGES and (self.channel is None or m.channel == self.channel):
                 due.setdefault(i, []).append(m)
         for end in self.ends.values():
-            due.setdefault(max(0, end - t0), [])
-        prev, row = 0, self.row
-        for i in sorted(k for k in due if k < ext.shape[0]):
+            if end - t0 < ext.shape[0]:
+                due.setdefault(max(0, end - t0), [])
+        prev, row, n = 0, self.row, ext.shape[0]
+        while due:
+            i = min(due)
             ext[prev:i] = row
             prev = i
-            self.at_sample(due[i], t0 + i)
+            self.at_sample(due.pop(i), t0 + i)
+            for end in self.ends.values():        # a note struck and released here ends at the next sample
+                if end - t0 < n:
+                    due.setdefault(end - t0, [])
         ext[prev:] = row
 
     def at_sample(self, messages, at):

@@ -172,13 +172,17 @@ class Allocator:
         if self.cols.shape[1] != n:
             self.cols = np.zeros((self.count, n, 5))
         cols, cursor, due = self.cols, 0, self._due(t0, n)
-        for i in sorted(due):
+        while due:
+            i = min(due)
             cols[:, cursor:i] = self.rows[:, None, :]
             cursor = i
-            for v in self.at_sample(due[i], t0 + i):
+            for v in self.at_sample(due.pop(i), t0 + i):
                 if i > 0:
                     cols[v, i - 1, GATE] = 0.0
             self.done = t0 + i
+            for end in self.ends.values():        # a note struck and released here ends at the next sample
+                if end - t0 <= n:
+                    due.setdefault(end - t0, [])
         cols[:, cursor:n] = self.rows[:, None, :]
         self._block = (t0, n)
         return cols

@@ -58,6 +58,8 @@ def block_reference(registry=None):
         out.append(f"## {name}\n")
         if doc:
             out.append(doc[0] + "\n")
+        if cls.notes:
+            out.append(cls.notes.strip() + "\n")
         ins = [p.name for p in inputs] + [f"{n}*" for n, p in cls.params.items() if p.live]
         ports = f"`{', '.join(ins) or '—'} -> {', '.join(p.name for p in outputs) or '—'}`"
         if getattr(cls, "check_cell", None) is not None:

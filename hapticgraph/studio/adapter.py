@@ -11,7 +11,7 @@ import threading
 import numpy as np
 
 from ..devices import audio
-from ..devices.kinds import same
+from ..devices.driver_kind import same
 from ..graph.program import PlanError
 from ..session import Session
 from .describe import bodies

@@ -137,3 +137,46 @@ def test_silent_device_holds_the_start_values(write_patch):
     r = hapticgraph.render(patch, 0.01, probes=PROBES)
     assert r.probes["note.gate"].max() == 0.0 and np.all(r.probes["note.freq"] == 440.0)
     assert np.all(r.probes["cc.out"] == 100.0)
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 64])
+def test_same_sample_events_in_either_order_and_notes_by_channel(tmp_path, chunk):
+    """midi_note (newest note held): a note-off and a note-on of one key at one sample leave the
+    new note sounding whatever their order; another channel's note-off leaves a note alone; a
+    note struck and released at one sample sounds for that sample."""
+    events = [(10, mido.Message("note_on", note=60, velocity=100)),
+              (20, mido.Message("note_on", note=60, velocity=50)), (20, mido.Message("note_off", note=60)),
+              (30, mido.Message("note_off", note=60, channel=5)),               # channel 6 holds no 60
+              (40, mido.Message("note_off", note=60)), (40, mido.Message("note_on", note=60, velocity=70)),
+              (50, mido.Message("note_off", note=60)),
+              (60, mido.Message("note_on", note=62, velocity=127)), (60, mido.Message("note_off", note=62))]
+    write_midi_file(tmp_path / "song.mid", events, RATE)
+    (tmp_path / "p.yaml").write_text(PATCH.replace("CHANNEL", "0"))
+    r = hapticgraph.render(hapticgraph.load(tmp_path / "p.yaml"), 0.002, probes=PROBES, chunk=chunk)
+    gate, velocity = r.probes["note.gate"], r.probes["note.velocity"]
+    assert gate[:10].max() == 0.0 and gate[10:50].min() == 1.0 and gate[50:60].max() == 0.0
+    assert velocity[20] == pytest.approx(50 / 127) and velocity[40] == pytest.approx(70 / 127)
+    assert gate[60] == 1.0 and gate[61:].max() == 0.0
+    assert r.probes["note.freq"][60] == pytest.approx(440 * 2 ** ((62 - 69) / 12))
+
+
+def test_a_device_that_never_stops_is_abandoned_with_one_line(song_patch, monkeypatch, capsys):
+    """Session.stop gives each device STOP_SECONDS; past it the device is left behind, named."""
+    import threading
+    import time
+
+    import hapticgraph.graph.engine as engine
+    from hapticgraph.devices import open_drivers
+    monkeypatch.setattr(engine, "STOP_SECONDS", 0.2)
+    patch = song_patch()
+    drivers = open_drivers(patch)
+    release = threading.Event()
+    monkeypatch.setattr(drivers["song"], "stop", lambda: release.wait(30))
+    session = engine.Session(patch, drivers=drivers, blocksize=64)
+    session.process(64)
+    began = time.monotonic()
+    session.stop()
+    took = time.monotonic() - began
+    release.set()
+    assert took < 5.0 and not session.started
+    assert capsys.readouterr().err.splitlines() == ["hapticgraph: device 'song' did not close within 0.2 s: abandoned"]

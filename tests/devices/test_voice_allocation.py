@@ -132,3 +132,78 @@ def test_note_ons_at_their_exact_samples_in_a_patch(write_patch, tmp_path, chunk
     assert list(gate[151]) == [1, 0, 1]                                         # 64 released
     assert list(gate[199]) == [1, 1, 1] and r.probes["key2_note.freq"][199] == pytest.approx(440 * 2 ** (5 / 12))
     np.testing.assert_array_equal(r.audio[:, 0], gate.sum(axis=1))             # the voices' gates sum
+
+
+def _random_messages(rng, count):
+    """Note-ons, note-offs (some as velocity 0) and bends on two channels and three keys."""
+    out = []
+    for _ in range(count):
+        key, channel, kind = int(rng.choice([60, 62, 64])), int(rng.integers(0, 2)), rng.integers(0, 4)
+        out.append(on(key, channel=channel) if kind == 0 else off(key, channel=channel) if kind == 1 else
+                   on(key, velocity=0, channel=channel) if kind == 2 else
+                   mido.Message("pitchwheel", pitch=int(rng.integers(-8192, 8192)), channel=channel))
+    return out
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_live_events_give_the_columns_a_file_of_them_gives(seed):
+    """A live hub (its clock faked: events stamped inside each block's interval, bursts sharing a
+    stamp) logs each event at the sample it placed it; those events as a file give the same
+    voices, sample for sample, in any block size."""
+    from hapticgraph.devices.events import Hub
+    rng, rate, n = np.random.default_rng(seed), 48000, 64
+    live, now = Hub("keys"), [0.0]
+    live.clock = lambda: now[0]
+    live.start(rate)
+    live.log = []
+    alloc, blocks = Allocator(live, None, 3), []
+    for t0 in range(0, 64 * n, n):
+        stamps = np.sort(rng.uniform(now[0], now[0] + n / rate, int(rng.integers(0, 5))))
+        for stamp in stamps:
+            for message in _random_messages(rng, int(rng.integers(1, 3))):
+                live.post(message, float(stamp))
+        now[0] += n / rate
+        blocks.append(alloc.block(t0, n).transpose(1, 0, 2).copy())
+    played = np.concatenate(blocks)
+    assert len(live.log) > 50 and len({s for s, _ in live.log}) < len(live.log)    # bursts at one sample
+    assert min(s - 64 * (s // 64) for s, _ in live.log if s >= 64) >= 0
+    for block in (1, 64, 100):
+        from_file = Allocator(Hub("song", timed=sorted(live.log, key=lambda e: e[0])), None, 3)
+        from_file.hub.start(rate)
+        cols = np.concatenate([from_file.block(t0, min(block, len(played) - t0)).transpose(1, 0, 2).copy()
+                               for t0 in range(0, len(played), block)])
+        np.testing.assert_array_equal(cols, played)
+
+
+def test_two_channels_on_one_key_are_two_notes():
+    """Issue 24's chorale: channel 2 releases key 55 at the sample channel 1 strikes it (listed
+    first); then both hold 57 and channel 1 lets go first; then both strike 59 at one sample."""
+    c = columns([(10, on(55, channel=1)), (50, on(55)), (50, off(55, channel=1)),
+                 (60, on(57)), (62, on(57, channel=1)), (80, off(57)), (100, off(57, channel=1)),
+                 (120, on(59)), (120, on(59, channel=1))], count=4, n=160)
+    at = {k: np.flatnonzero((c[:, :, GATE] > 0) & (c[:, :, NOTE] == k)) for k in (55, 57, 59)}
+    sounding = {k: np.unique(np.flatnonzero(((c[:, :, GATE] > 0) & (c[:, :, NOTE] == k)).any(axis=1)))
+                for k in (55, 57, 59)}
+    assert list(sounding[55]) == list(range(10, 160))      # the new 55 goes on: only its channel's off ends it
+    assert list(sounding[57]) == list(range(60, 100))      # held until the second channel lets go
+    assert all(len(at[k]) for k in at)
+    v59 = np.flatnonzero(c[120, :, NOTE] == 59)
+    assert len(v59) == 2 and np.all(c[119, v59, GATE] == 0.0) and np.all(c[120, v59, GATE] == 1.0)
+
+
+@pytest.mark.parametrize("order", ["off first", "on first"])
+def test_a_note_off_and_a_note_on_at_one_sample_leave_the_new_note(order):
+    events = [(10, on(60, velocity=40)), (30, off(60)), (30, on(60, velocity=90))]
+    if order == "on first":
+        events[1], events[2] = events[2], events[1]
+    c = columns(events, count=2, n=64)
+    gate = (c[:, :, GATE] > 0) & (c[:, :, NOTE] == 60)
+    assert gate[10:].any(axis=1).all()                       # heard throughout: the old note to 29, the new from 30
+    new = int(np.flatnonzero(c[30, :, VELOCITY] == 90 / 127)[0])
+    assert (c[29, new, GATE], c[30, new, GATE]) == (0.0, 1.0) and np.all(c[30:, new, GATE] == 1.0)
+
+
+def test_a_restrike_starts_at_its_own_sample_with_the_dip_before():
+    c = columns([(10, on(60)), (30, on(60, velocity=20)), (31, on(60, velocity=30))], count=1, n=40)
+    assert list(c[27:33, 0, GATE]) == [1.0, 1.0, 0.0, 0.0, 1.0, 1.0]   # 30's dip at 29; 31's at 30 (30 lost)
+    assert c[29, 0, VELOCITY] == 100 / 127 and c[31, 0, VELOCITY] == 30 / 127
