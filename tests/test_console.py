@@ -4,7 +4,7 @@ import io
 import numpy as np
 
 import hapticgraph
-from conftest import EDITABLE_STRING
+from project_env import EDITABLE_STRING
 from hapticgraph.console import Console, submit
 
 

@@ -4,7 +4,7 @@ import subprocess
 
 import pytest
 
-from conftest import PATCHES
+from project_env import PATCHES
 from hapticgraph.cli import main
 from hapticgraph.graph.export import to_dot, to_mermaid
 from hapticgraph.graph.patch import load

@@ -1,5 +1,5 @@
 """docs/blocks.md is generated from the block declarations and must be current."""
-from conftest import ROOT
+from project_env import ROOT
 from hapticgraph.graph.registry import Registry
 from hapticgraph.reference import block_reference
 

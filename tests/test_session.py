@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import hapticgraph
-from conftest import EDITABLE_STRING
+from project_env import EDITABLE_STRING
 
 SHEET = """
 hapticgraph: 1

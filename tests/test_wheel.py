@@ -9,7 +9,7 @@ import venv
 
 import pytest
 
-from conftest import ROOT
+from project_env import ROOT
 
 
 def _run(cmd, **kw):

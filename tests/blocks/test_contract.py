@@ -6,7 +6,7 @@ import jsonschema
 import numpy as np
 import pytest
 
-from conftest import single_block_patch
+from project_env import single_block_patch
 from hapticgraph.blocks.vocabulary import BlockDefinitionError
 from hapticgraph import render
 from hapticgraph.graph.patch import load

@@ -12,7 +12,7 @@ import venv
 
 import pytest
 
-from conftest import ROOT
+from project_env import ROOT
 
 PLUGIN = ROOT / "examples" / "driver_plugin"
 

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import PATCHES, ROOT
+from project_env import PATCHES, ROOT
 import hapticgraph
 from hapticgraph.devices import open_drivers
 from hapticgraph.graph import aot

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from analysis import estimate_f0
-from conftest import PATCHES
+from project_env import PATCHES
 from hapticgraph import render
 from hapticgraph.graph.patch import load
 

@@ -5,7 +5,7 @@ import shutil
 
 import numpy as np
 
-from conftest import ROOT
+from project_env import ROOT
 from hapticgraph import render
 from hapticgraph.graph.kernel import CompiledKernel
 from hapticgraph.graph.patch import load

@@ -3,7 +3,7 @@
 name that is no block."""
 import io
 
-from conftest import EDITABLE_STRING
+from project_env import EDITABLE_STRING
 from hostile_env import assert_patch_error
 
 import hapticgraph

@@ -18,7 +18,7 @@ with warnings.catch_warnings():
     from starlette.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
-from conftest import ROOT
+from project_env import ROOT
 from hapticgraph.graph.modes import modal_frequencies
 from hapticgraph.studio.server import build_app
 from hapticgraph.studio.session import StudioSession

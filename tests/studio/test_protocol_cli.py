@@ -20,7 +20,7 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from audio_env import jack_or_skip
-from conftest import ROOT
+from project_env import ROOT
 
 FIRST_LINE = re.compile(r"hapticgraph studio: http://127\.0\.0\.1:(\d+)/\?token=([A-Za-z0-9_\-]{20,})\n")
 
