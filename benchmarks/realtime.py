@@ -75,8 +75,8 @@ def stop_jack(proc):
 
 
 def headroom(sizes, seconds):
-    from hapticgraph import load
-    from hapticgraph.devices import audio, open_drivers
+    from hapticgraph import Session, load
+    from hapticgraph.devices import audio
     if shutil.which("jackd") is None:
         print("part 1 skipped: jackd (Debian jackd2) is not installed")
         return []
@@ -89,7 +89,7 @@ def headroom(sizes, seconds):
             device = audio.find_device("system", "output", 2)
             for a, b in sizes:
                 patch = load(sheet(folder, a, b))
-                session = audio.play_session(patch, open_drivers(patch), 64)
+                session = Session.open(patch, blocksize=64, editable=False)   # as `play` opens it
                 # the kernel alone, offline: time per 64-sample block
                 for _ in range(50):
                     session.process(64)
@@ -98,7 +98,7 @@ def headroom(sizes, seconds):
                 for _ in range(n):
                     session.process(64)
                 offline = (time.perf_counter() - t) / n
-                session = audio.play_session(patch, open_drivers(patch), 64)
+                session = Session.open(patch, blocksize=64, editable=False)   # as `play` opens it
                 player = audio.Player(session, device=device, blocksize=64, latency="low", seconds=seconds)
                 rep = player.run()
                 # keeps up: no callback over its period, p99 under it, no xrun once running (an xrun
@@ -141,7 +141,7 @@ def servo(seconds, rate_goal=20000.0):
     with tempfile.TemporaryDirectory() as folder:
         # a take of the simulated hand (what a HID reader thread would have buffered)
         s = Session(patch, drivers=open_drivers(patch), blocksize=4096)
-        rec = Recorder(os.path.join(folder, "hand"), s, 2, 4096, ring_seconds=12)
+        rec = Recorder(os.path.join(folder, "hand"), s.prog, 2, 4096, ring_seconds=12)
         total = int(patch.rate * (2 * seconds + 2))
         for t0 in range(0, total, 4096):
             n = min(4096, total - t0)

@@ -1,12 +1,13 @@
 """Real-time play through the sound card (sounddevice / PortAudio): `hapticgraph play`.
 
 The sound card's clock drives the patch: PortAudio calls `Player._callback` every block of
-`blocksize` frames, and the callback only runs `session.process(frames)` (the drivers exchange
+`blocksize` frames, and the callback only runs `session.process(frames)` — the session is a
+hapticgraph.Session, the public door — (the drivers exchange
 inputs and forces, the compiled kernel — which releases the GIL — runs the block, the output is
 checked) and copies the audio columns into PortAudio's buffer, converting float64 to float32 in
 place. Everything it touches is preallocated; a recording is copied into ring buffers that a
-writer thread empties; a reload (`--watch`) is compiled on another thread and swapped in at a
-block boundary.
+writer thread empties; a reload (`--watch`) is compiled on another thread (Session.swap) and
+applied by the callback at a block boundary, like every queued edit (`--console`).
 
 Counted and reported at the end: callbacks, xruns (PortAudio's status flags: output underflow
 and overflow, input underflow and overflow, priming), the callback load (time spent in the
@@ -23,7 +24,7 @@ import time
 
 import numpy as np
 
-from ..graph.engine import Driver, SafetyStop, Session
+from ..graph.engine import Driver, SafetyStop
 
 # sound_cards' and watch's names are re-exported: the play command and the tests find them here
 from .sound_cards import AudioError, find_device, rescan, sound_cards, sounddevice
@@ -56,17 +57,14 @@ class LiveInput(Driver):
 
 
 class Bound:
-    """A session prepared for the callback: its block size, column ranges and live inputs."""
+    """What the callback reads of the session's current patch (a swap changes it): its block
+    size, audio channels and live inputs."""
 
     def __init__(self, session, out_channels):
-        self.session = session
-        prog = session.prog
+        self.swaps = session.swaps
         self.bs = session.blocksize
-        self.ch = min(prog.channels, out_channels)
-        self.f0 = prog.device_records[0][1] if prog.device_records else len(prog.records)
-        self.live = [d for d in prog.drivers.values() if isinstance(d, LiveInput)]
-        self.carry = []          # (dst, src) array pairs copied at the swap (state kept by --watch)
-        self.kept = []
+        self.ch = min(session.channels, out_channels)
+        self.live = [d for d in session.drivers.values() if isinstance(d, LiveInput)]
 
 
 class Report:
@@ -108,7 +106,8 @@ class Report:
 
 
 class Player:
-    """Plays a Session through a PortAudio stream; `run()` blocks until the end and returns a Report.
+    """Plays a hapticgraph.Session through a PortAudio stream; `run()` blocks until the end and
+    returns a Report.
 
     `device`/`input_device`: PortAudio indices (None: default); `latency`: 'low', 'high' or
     seconds; `seconds`: stop after exactly that many samples (None: until Ctrl-C or a stop);
@@ -123,16 +122,13 @@ class Player:
         self.blocksize = int(blocksize)
         if session.blocksize < self.blocksize:
             raise ValueError("the session's block size is smaller than the stream's")
-        self.out_channels = max(1, out_channels or session.prog.channels)
+        self.session = session
+        self.out_channels = max(1, out_channels or session.channels)
         self.bound = Bound(session, self.out_channels)
-        self.pending = None
-        self.swapped = threading.Event()
         self.recorder = recorder
         self.probe_out = probe_out
         if probe_out is not None:
-            prog = session.prog
-            forces = min((col for _, col in prog.device_records), default=len(prog.records))
-            probe_out.start(self.rate, prog.channels, [label for label, _ in prog.records[prog.channels:forces]], None)
+            probe_out.start(self.rate, session.channels, list(session.probes), None)
         self.remaining = None if seconds is None else int(round(seconds * self.rate))
         self.nfade = max(1, int(round(fade * self.rate)))
         self.ramp = 1.0 - np.arange(1, self.nfade + 1) / self.nfade      # ends at exactly 0
@@ -153,10 +149,6 @@ class Player:
         lat = self.stream.latency
         self.latency = float(lat[1] if isinstance(lat, (tuple, list)) else lat)
         self.device_name = self._device_name()
-
-    def bind(self, session):
-        """`session` prepared for this player's callback (what `offer` takes)."""
-        return Bound(session, self.out_channels)
 
     def _open_stream(self, device, input_device, latency):
         """A duplex stream when the patch has live inputs, else an output stream."""
@@ -202,8 +194,8 @@ class Player:
                                                        or status.input_underflow or status.input_overflow):
                     self.xrun_at[self.nxrun] = self.calls
                     self.nxrun += 1
-            if self.pending is not None:
-                self._swap()
+            if self.session.pending:
+                self._apply()
             self._fill(indata, outdata, frames)
         except Exception as exc:  # noqa: BLE001 - never let an error kill the audio thread silently
             outdata.fill(0.0)
@@ -253,13 +245,13 @@ class Player:
             block = indata if (pos == 0 and n == frames) else indata[pos:pos + n]
             for d in b.live:
                 d.block = block
-        session = b.session
+        session = self.session
         try:
             rec = session.process(n)
         except SafetyStop as exc:
             self.problem = str(exc)
             if rec_ is not None:
-                rec_.push_inputs(session.ext[:n], None)
+                rec_.push_inputs(session.inputs, None)
             if mode == PLAY:
                 self.fade_pos = 0
             return 0, FADE_HOLD
@@ -275,7 +267,7 @@ class Player:
             mode = self._fade_out(out, n)
         np.copyto(self.last, out[n - 1])
         if rec_ is not None:
-            rec_.push_inputs(session.ext[:n], rec[:, b.f0:])
+            rec_.push_inputs(session.inputs, session.forces)
             rec_.push_audio(out)
         if self.probe_out is not None:
             self.probe_out.write(rec)
@@ -303,37 +295,25 @@ class Player:
             self.recorder.push_audio(out)
         return n, mode
 
-    def _swap(self):
-        new, old = self.pending, self.bound
-        for dst, src in new.carry:
-            np.copyto(dst, src)
-        new.session.t = old.session.t
-        new.session.started = True
-        self.bound = new
-        self.pending = None
-        if self.recorder is not None:
-            self.recorder.session_changed(new.session)
-        self.swaps += 1
-        self.swapped.set()
+    def _apply(self):
+        """The session's queued changes, now, before the live inputs are handed this block; a
+        swapped-in patch is bound afresh."""
+        session = self.session
+        session.apply()
+        if session.swaps != self.bound.swaps:
+            self.bound = Bound(session, self.out_channels)
+            if self.recorder is not None:
+                self.recorder.session_changed(session.program)
+            self.swaps += 1
 
     # -- the control side ------------------------------------------------------------------------
-    def offer(self, bound, timeout=5.0):
-        """Swap `bound` in at the next block boundary; True once it plays."""
-        self.swapped.clear()
-        self.pending = bound
-        if not self.swapped.wait(timeout):
-            if self.pending is bound:
-                self.pending = None
-                return False
-        return True
-
     def request_stop(self):
         """Fade out and stop (what Ctrl-C does)."""
         self.stop_requested = True
 
     def run(self, on_tick=None):
         """Start the stream and block until the end; Ctrl-C fades out. Returns a Report."""
-        session = self.bound.session
+        session = self.session
         session.start()          # drivers start here, before the first callback
         try:
             self.stream.start()
@@ -355,7 +335,7 @@ class Player:
             self.stream.close()
             if self.recorder is not None:      # the take and the WAV complete before any device closes
                 self.recorder.close()
-            self.bound.session.stop()          # each device within its deadline (graph.engine.stop_driver)
+            self.session.close()               # each device within its deadline (graph.engine.stop_driver)
             if self.probe_out is not None:
                 self.probe_out.close()
         if self.error is not None:
@@ -363,11 +343,5 @@ class Player:
         return Report(self)
 
 
-def play_session(patch, drivers, blocksize, probes=(), editable=False):
-    """The Session play runs (safety on: runaway at 1e3, as `run`); `editable`: cells can be
-    locked, unlocked and cut while playing (lattices on the CSR path)."""
-    return Session(patch, probes, drivers, "compiled", blocksize=blocksize, runaway=1e3, editable=editable)
-
-
 __all__ = ["AudioError", "Bound", "LiveInput", "Player", "Report", "Watcher", "carry_state", "find_device",
-           "play_session", "plugin_files", "reload_drivers", "rescan", "sound_cards", "sounddevice"]
+           "plugin_files", "reload_drivers", "rescan", "sound_cards", "sounddevice"]

@@ -59,6 +59,11 @@ class Hub(Driver):
         self._block, self._cache, self._at, self._next = None, [], 0, []
         self.queue.clear()
 
+    def tap(self, inst):
+        """The Driver of block instance `inst` (midi_note, midi_cc, osc_in) naming this device:
+        a Tap that reads the events it listens to."""
+        raise NotImplementedError
+
     def post(self, message, stamp=None):
         """A live event (from the receiving thread): thread-safe, never blocks."""
         self.queue.append((self.clock() if stamp is None else stamp, message))

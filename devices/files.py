@@ -158,9 +158,10 @@ class FileSink:
     devices.wav.audio_format) and the probes to an .npz, both opened before rendering so a bad
     path fails before any work, both put in place by `close()` — after a stop or a failure too."""
 
-    def __init__(self, audio_path, probes_path, rate, channels, probes, subtype=None):
+    def __init__(self, audio_path, probes_path, rate, channels, probes, subtype=None, container=None):
         self.channels, self.probe_names = channels, list(probes)
-        self.audio = AudioWriter(audio_path, rate, channels, subtype) if audio_path and channels else None
+        self.audio = (AudioWriter(audio_path, rate, channels, subtype, container=container)
+                      if audio_path and channels else None)
         try:
             self.probes = ProbeWriter(probes_path, rate, probes) if probes_path and probes else None
         except BaseException:

@@ -45,17 +45,12 @@ import numpy as np
 
 from ..graph.engine import Driver
 from ..graph.errors import PatchError
-from .hid_profiles import MAX_FORCE, find_profile, load_profile, shipped_profiles
+from .driver_kind import attached
+from .errors import DeviceError
+from .hid_profiles import find_profile, load_profile, shipped_profiles
 from .hid_reports import Decoder
-from .hid_transports import (
-    HidapiTransport,
-    ReplayTransport,
-    Transport,
-    _error,
-    list_hid_devices,
-)
-from .kinds import HidKind
-from .simulated import force_limit
+from .hid_transports import HidapiTransport, ReplayTransport, Transport, list_hid_devices
+from .limits import FORCE_CEILING, force_limit
 
 RING = 512                  # reports held between the reader thread and the kernel
 MAX_READ_MS = 20            # the longest a read waits, so the thread always notices a stop
@@ -67,23 +62,23 @@ def _entry_profile(name, spec, base):
     """The Profile a device entry's `profile:` names (a shipped name or a .yaml file)."""
     ref = spec.get("profile")
     if not ref:
-        raise _error(f"device {name!r}: driver hid needs a `profile:` (shipped: "
+        raise DeviceError(f"device {name!r}: driver hid needs a `profile:` (shipped: "
                      f"{', '.join(shipped_profiles())}; or a .yaml file)")
     path = find_profile(ref, base)
     if path is None:
-        raise _error(f"device {name!r}: no HID profile {ref!r} (shipped: {', '.join(shipped_profiles())})")
+        raise DeviceError(f"device {name!r}: no HID profile {ref!r} (shipped: {', '.join(shipped_profiles())})")
     try:
         return load_profile(path)
     except PatchError as exc:
-        raise _error(f"device {name!r}: HID profile {ref!r}:\n{exc}") from None
+        raise DeviceError(f"device {name!r}: HID profile {ref!r}:\n{exc}") from None
 
 
 def _max_force(name, spec, profile):
     """The profile's max_force is the device's bound; an entry may only lower it."""
     if spec.get("max_force") is None:
         return float(profile.max_force)
-    bound = float(profile.max_force) if profile.output else MAX_FORCE
-    return force_limit(name, HidKind.name, spec["max_force"], bound,
+    bound = float(profile.max_force) if profile.output else FORCE_CEILING
+    return force_limit(name, "hid", spec["max_force"], bound,
                        f"the bound of its profile {profile.name!r}" if profile.output
                        else "the bound of any device")
 
@@ -103,7 +98,7 @@ class HidDriver(Driver):
         self.name = name
         spec = spec if spec is not None else {}
         if profile is None:
-            profile = getattr(spec, "hid_profile", None) or _entry_profile(name, spec, base)
+            profile = attached(spec, "hid_profile") or _entry_profile(name, spec, base)
         self.profile = profile
         inp = profile.input
         self.decoder = Decoder(profile)
@@ -114,7 +109,7 @@ class HidDriver(Driver):
         pid = spec.get("product_id", profile.product_id)
         self.transport = transport if transport is not None else HidapiTransport(
             vid, pid, serial=spec.get("serial"), path=spec.get("path"))
-        self.stamped = bool(getattr(self.transport, "virtual", False))
+        self.stamped = bool(self.transport.virtual)
         self.read_ms = max(1, min(MAX_READ_MS, int(math.ceil(2000 * inp.interval))))
         self.timeout = inp.timeout
         # preallocated: the ring the reader fills, the row held across blocks, the output report
@@ -136,14 +131,14 @@ class HidDriver(Driver):
 
     # -- opening and closing
     def _describe(self):
-        describe = getattr(self.transport, "describe", None)
-        return describe() if describe else f"HID device {self.profile.vendor_id:04x}:{self.profile.product_id:04x}"
+        return (self.transport.describe()
+                or f"HID device {self.profile.vendor_id:04x}:{self.profile.product_id:04x}")
 
     def _open(self):
         try:
             self.transport.open()
         except OSError as exc:
-            raise _error(f"device {self.name!r}: cannot open the {self._describe()} (profile "
+            raise DeviceError(f"device {self.name!r}: cannot open the {self._describe()} (profile "
                          f"{self.profile.name!r}): {exc}; `hapticgraph devices` lists the HID devices "
                          f"connected") from None
         self.is_open = True

@@ -5,7 +5,7 @@ A profile is read into frozen dataclasses and checked as a whole; every problem 
 module finds, parses and checks profiles; the dataclasses they become, with the decoding of one
 field and the encoding of the force report, are in hapticgraph.devices.hid_reports; the
 transports in hapticgraph.devices.hid_transports; the reader thread in hapticgraph.devices.hid.
-The hid driver kind (hapticgraph.devices.kinds) hands the loader a device's ports from here.
+The hid driver kind (hapticgraph.devices.hid_kind) hands the loader a device's ports from here.
 
 Profile format (version 1)::
 
@@ -16,7 +16,7 @@ Profile format (version 1)::
     product_id: 0x0001
     max_force: 4.0                  # N; required with an output report; the device's bound: every
                                     #   force is clamped to it, a device entry may only lower it
-                                    #   (finite, > 0, at most MAX_FORCE = 1000 N, and what the field holds)
+                                    #   (finite, > 0, at most FORCE_CEILING = 1000 N, and what the field holds)
     input:
       report_id: 1                  # 0: the device numbers no reports (no id byte in front)
       length: 12                    # bytes of report data after the id byte
@@ -51,6 +51,8 @@ from ..blocks.device import Haptic
 from ..graph.errors import PatchError
 from ..graph.source import LDict, load_yaml
 from .hid_reports import Field, InputReport, OutputReport, Profile
+from .driver_kind import attached
+from .limits import FORCE_CEILING
 from .yaml_checks import Checker, is_int, line_of
 
 SUFFIXES = (".yaml", ".yml")
@@ -60,8 +62,6 @@ IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")   # used with fullmatch: a name is
 RESERVED = ("t", *(d.name for d in Haptic.outputs + Haptic.inputs), *Haptic.params,
             *(e.attr for e in Haptic.externals), "estimate")
 MAX_REPORT = 4096        # bytes; USB full speed interrupt reports are ≤ 64, high speed ≤ 1024
-MAX_FORCE = 1000.0       # N: no profile or device entry may state more (the patch schema's bound on
-                         # max_force); the simulated device's own bound is kinds.SIMULATED_MAX_FORCE (50 N)
 
 TOP_KEYS = ("hid_profile", "name", "description", "vendor_id", "product_id", "max_force", "input", "output")
 INPUT_KEYS = ("report_id", "length", "interval", "timeout", "position", "velocity", "velocity_cutoff",
@@ -113,7 +113,7 @@ def load_profile(path):
 def profile_of(spec, base=None):
     """The Profile of a `driver: hid` device entry: the one the loader attached, else loaded by
     name; None if it cannot be loaded (the loader has reported why)."""
-    profile = getattr(spec, "hid_profile", None)
+    profile = attached(spec, "hid_profile")
     if profile is not None:
         return profile
     path = find_profile(spec.get("profile", ""), base) if isinstance(spec.get("profile"), str) else None
@@ -128,8 +128,8 @@ def profile_of(spec, base=None):
 # -- parsing and checking ------------------------------------------------------------------------
 
 
-def _field(chk, name, node, where, keys, default_size, length, line):
-    """One field; None if it has a problem (reported)."""
+def check_field(chk, name, node, where, keys, default_size, length, line):
+    """One field of a report (HID or serial profile); None if it has a problem (reported on `chk`)."""
     if not isinstance(node, LDict):
         chk.add(line, f"{where}: expected a mapping such as {{byte: 0, size: 8}}")
         return None
@@ -169,7 +169,8 @@ def _field(chk, name, node, where, keys, default_size, length, line):
                  offset if offset is not None else 0.0, relative, unit, node.line)
 
 
-def _overlaps(chk, fields, what):
+def check_overlaps(chk, fields, what):
+    """Report (on `chk`) every field of `fields` whose bits overlap an earlier one's."""
     spans = sorted(fields, key=lambda f: (f.first_bit, f.line))
     for a, i in zip(spans, range(len(spans))):
         for b in spans[i + 1:]:
@@ -181,7 +182,9 @@ def _overlaps(chk, fields, what):
                                  f"line {first.line})")
 
 
-def _fields(chk, node, key, where, keys, default_size, length, names):
+def check_fields(chk, node, key, where, keys, default_size, length, names):
+    """The fields of group `key` (axes, buttons) of a report mapping, each checked (check_field);
+    `names`: the names taken so far (a name used twice is reported)."""
     group = node.get(key)
     if group is None:
         return []
@@ -205,7 +208,7 @@ def _fields(chk, node, key, where, keys, default_size, length, names):
         names[name] = line
         if isinstance(spec, LDict):
             spec.line = line
-        f = _field(chk, name, spec, here, keys, default_size, length, line)
+        f = check_field(chk, name, spec, here, keys, default_size, length, line)
         if f is not None:
             out.append(f)
     return out
@@ -237,8 +240,8 @@ def _parse(doc, path, problems):
 
 def _max_force(chk, doc):
     max_force = chk.number(doc, "max_force", "profile", None, positive=True)
-    if max_force is not None and max_force > MAX_FORCE:
-        chk.add(line_of(doc, "max_force"), f"profile.max_force: {max_force:g} N is above {MAX_FORCE:g} N, "
+    if max_force is not None and max_force > FORCE_CEILING:
+        chk.add(line_of(doc, "max_force"), f"profile.max_force: {max_force:g} N is above {FORCE_CEILING:g} N, "
                                            "the most any device may state")
         return None
     return max_force
@@ -256,11 +259,11 @@ def _input_report(chk, inp):
                                          f"interval {interval:g} s")
     cutoff = chk.number(inp, "velocity_cutoff", "input", 50.0, nonneg=True)
     names = {}
-    axes = _fields(chk, inp, "axes", "input", AXIS_KEYS, 8, length, names)
-    buttons = _fields(chk, inp, "buttons", "input", BUTTON_KEYS, 1, length, names)
+    axes = check_fields(chk, inp, "axes", "input", AXIS_KEYS, 8, length, names)
+    buttons = check_fields(chk, inp, "buttons", "input", BUTTON_KEYS, 1, length, names)
     if not axes and not buttons and "axes" not in inp and "buttons" not in inp:
         chk.add(inp.line, "input: no axes and no buttons: the device would give nothing")
-    _overlaps(chk, axes + buttons, "input")
+    check_overlaps(chk, axes + buttons, "input")
     position = chk.text(inp, "position", "input", None)
     velocity = chk.text(inp, "velocity", "input", "estimate")
     _motion_axes(chk, inp, axes, position, velocity)
@@ -296,7 +299,7 @@ def _output_report(chk, outp, doc, max_force):
     else:
         if isinstance(force_node, LDict):
             force_node.line = line_of(outp, "force")
-        force = _field(chk, "force", force_node, "output.force", FORCE_KEYS, 16, length, line_of(outp, "force"))
+        force = check_field(chk, "force", force_node, "output.force", FORCE_KEYS, 16, length, line_of(outp, "force"))
     if max_force is None and "max_force" not in doc:
         chk.add(outp.line, "profile: a device with a force output needs `max_force` [N], "
                            "the limit every force is clamped to")
@@ -311,5 +314,5 @@ def _output_report(chk, outp, doc, max_force):
     return None
 
 
-__all__ = ["MAX_FORCE", "Field", "InputReport", "OutputReport", "Profile", "find_profile", "load_profile",
+__all__ = ["check_field", "check_fields", "check_overlaps", "Field", "InputReport", "OutputReport", "Profile", "find_profile", "load_profile",
            "profile_of", "shipped_dir", "shipped_profiles"]

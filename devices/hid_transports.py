@@ -3,25 +3,21 @@ is a real device through hidapi (imported when a device opens); ReplayTransport 
 reports with their timing, in virtual time (deterministic, for tests and offline re-rendering)
 or in real time. `list_hid_devices` is what `hapticgraph devices` shows.
 """
+import os
 import time
 
 from ..graph.errors import PatchError
+from .errors import DeviceError
 from .hid_profiles import find_profile, load_profile, shipped_profiles
-
-
-def _error(message):
-    # imported late: the package's __init__ imports the driver kinds, which import this package
-    from . import DeviceError
-    return DeviceError(message)
 
 
 def _hid_module():
     try:
         import hid
     except ImportError:
-        raise _error("the HID driver needs the hidapi package: pip install 'hapticgraph[hid]'") from None
+        raise DeviceError("the HID driver needs the hidapi package: pip install 'hapticgraph[hid]'") from None
     if not hasattr(hid, "device"):
-        raise _error("the `hid` module found is not hidapi's (PyPI `hid` and `hidapi` share the name): "
+        raise DeviceError("the `hid` module found is not hidapi's (PyPI `hid` and `hidapi` share the name): "
                      "pip uninstall hid, then pip install hidapi")
     return hid
 
@@ -49,6 +45,10 @@ class Transport:
 
     def clock(self):
         return time.monotonic()
+
+    def describe(self):
+        """What the device is, for a message; None: the profile's ids say it."""
+        return None
 
 
 class HidapiTransport(Transport):
@@ -116,7 +116,7 @@ class ReplayTransport(Transport):
     """
 
     def __init__(self, reports, end="silent", virtual=True, fail_open=False):
-        if isinstance(reports, (str, bytes)) or hasattr(reports, "__fspath__"):
+        if isinstance(reports, (str, bytes)) or isinstance(reports, os.PathLike):
             reports = self.read_file(reports)
         events = []
         for t, data in reports:

@@ -52,7 +52,13 @@ def _is_num(v):
 
 def _controllers(devices, drivers, block_type):
     return [n for n, spec in devices.items()
-            if isinstance(spec, dict) and block_type in getattr(_kind(spec, drivers), "controls", ())]
+            if isinstance(spec, dict) and block_type in _controls(spec, drivers)]
+
+
+def _controls(spec, drivers):
+    """The block types the device of entry `spec` plays (none if its driver is unknown)."""
+    kind = _kind(spec, drivers)
+    return kind.controls if kind is not None else ()
 
 
 def _kind(spec, drivers):

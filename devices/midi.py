@@ -18,6 +18,7 @@ import os
 import threading
 from fractions import Fraction
 
+from .errors import DeviceError
 from .events import Hub, Tap
 from .voices import CHANNEL_MESSAGES, Allocator, VoiceTap, resolve
 
@@ -28,7 +29,6 @@ JOIN = 1.0                  # seconds a closing port waits for its reading threa
 
 
 def _error(message):
-    from . import DeviceError
     return DeviceError(message)
 
 

@@ -17,12 +17,9 @@ can follow the model.
 """
 import threading
 
+from .errors import DeviceError
 from .events import Hub, Tap
 
-
-def _error(message):
-    from . import DeviceError
-    return DeviceError(message)
 
 
 class OscHub(Hub):
@@ -44,7 +41,7 @@ class OscHub(Hub):
         try:
             self.server = BlockingOSCUDPServer((self.host, self.port), dispatcher)
         except OSError as exc:
-            raise _error(f"device {self.name!r}: cannot listen for OSC on {self.host}:{self.port}: {exc}") from None
+            raise DeviceError(f"device {self.name!r}: cannot listen for OSC on {self.host}:{self.port}: {exc}") from None
         self.port = self.server.server_address[1]         # the one given, or the one chosen for port 0
         self.thread = threading.Thread(target=self.server.serve_forever, kwargs={"poll_interval": 0.05},
                                        name=f"osc-{self.name}", daemon=True)

@@ -25,6 +25,7 @@ import numpy as np
 
 # ReplayDevice, replay_drivers, MAGIC, PREAMBLE, Take, header_bytes: re-exported (tests, benchmarks and
 # the driver kinds import them from here)
+from .recordable import Recordable
 from .replay import ReplayDevice, replay_drivers
 from .take import (
     FORCE_COLUMN,
@@ -44,7 +45,7 @@ from .take import (
 def _model_of(driver):
     """The name a take gives the model a driver substitutes (None: the patch's own block): its
     `take_type` when the model it runs is not the one that replays its columns."""
-    cls = getattr(driver, "take_type", driver.block_type)
+    cls = driver.take_type if isinstance(driver, Recordable) else driver.block_type
     if cls is None:
         return None
     for name, model in MODELS.items():
@@ -64,9 +65,9 @@ def _jsonable(value):
     return value
 
 
-def take_header(session, channels, blocksize, kinds=None):
-    """The JSON header of a take of `session` (its Program's ext columns and forces)."""
-    prog, patch = session.prog, session.prog.patch
+def take_header(prog, channels, blocksize, kinds=None):
+    """The JSON header of a take of a running patch (its Program `prog`: ext columns and forces)."""
+    patch = prog.patch
     sig = patch_signature(patch)
     drivers, offset = {}, 0
     order = []
@@ -78,7 +79,8 @@ def take_header(session, channels, blocksize, kinds=None):
         cols = [c for dev, c in prog.ext_columns if dev == device]
         drivers[device] = {"kind": (kinds or {}).get(device, type(d).__name__), "columns": cols,
                            "offset": offset, "model": _model_of(d),
-                           "block_values": _jsonable(getattr(d, "take_values", d.block_values)()),
+                           "block_values": _jsonable(d.take_values() if isinstance(d, Recordable)
+                                                     else d.block_values()),
                            "input": device in sig["inputs"]}
         bound = getattr(d, "max_force", None)      # a device's force bound (serial, HID): data, for replay
         if isinstance(bound, (int, float)) and 0 < bound < float("inf") and _model_of(d) is None:
@@ -101,7 +103,7 @@ def _want_columns(prog):
     """Tell the drivers whose inputs the kernel computes itself (a simulated hand's script) to
     fill their columns too, for the take."""
     for d in prog.drivers.values():
-        if hasattr(d, "recording"):
+        if isinstance(d, Recordable):
             d.recording = True
 
 
@@ -199,12 +201,11 @@ class Recorder:
     """Takes blocks from the audio callback into ring buffers (no allocation, no I/O there) and
     writes them to TAKE.hgrec and TAKE.wav from its own thread."""
 
-    def __init__(self, path, session, channels, blocksize, kinds=None, ring_seconds=4.0, flush_every=0.2,
+    def __init__(self, path, prog, channels, blocksize, kinds=None, ring_seconds=4.0, flush_every=0.2,
                  stream=None):
         self.path, self.wav_path = take_paths(path)
-        prog = session.prog
         self.layout = (list(prog.ext_columns), [d for d, _ in prog.device_records])
-        self.header = take_header(session, channels, blocksize, kinds)
+        self.header = take_header(prog, channels, blocksize, kinds)
         _want_columns(prog)
         self.nin, self.nforce = len(prog.ext_columns), len(prog.device_records)
         size = 1 << max(12, int(np.ceil(np.log2(max(1.0, ring_seconds * prog.rate)))))
@@ -269,9 +270,9 @@ class Recorder:
         self._ring(self.audio, self.aw, audio)
         self.aw += n
 
-    def session_changed(self, session):
-        """A reload swapped the session: keep recording inputs only if the layout is the same."""
-        prog = session.prog
+    def session_changed(self, prog):
+        """A reload swapped in another patch (its Program `prog`): keep recording inputs only if
+        the layout is the same."""
         if (list(prog.ext_columns), [d for d, _ in prog.device_records]) != self.layout:
             self.inputs_stopped = "a reload changed the patch's devices or inputs"
         else:

@@ -62,14 +62,19 @@ def ReplayDevice(name, spec, patch):
                         "or replay a whole take with `hapticgraph run PATCH --replay TAKE.hgrec`")
     take = Take(path)
     take.check_device(patch, name)
-    return take.driver(name)
+    return take_driver(take, name)
+
+
+def take_driver(take, name):
+    """The ReplayDriver of device (or input) `name` of `take`; TakeError if it has none."""
+    return ReplayDriver(name, take, take.driver_info(name))
 
 
 def replay_drivers(patch, path):
     """Drivers for every device and audio input of `patch` from the take at `path` (checked)."""
     take = Take(path)
     take.check(patch)
-    return take, {name: take.driver(name) for name in take.header["drivers"]} | {
+    return take, {name: take_driver(take, name) for name in take.header["drivers"]} | {
         name: _Idle(name) for name in patch.devices if name not in take.header["drivers"]}
 
 
@@ -80,4 +85,4 @@ class _Idle(Driver):
         self.name = name
 
 
-__all__ = ["ReplayDevice", "ReplayDriver", "replay_drivers"]
+__all__ = ["ReplayDevice", "ReplayDriver", "replay_drivers", "take_driver"]

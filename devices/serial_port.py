@@ -23,14 +23,10 @@ import threading
 import numpy as np
 
 from ..graph.engine import Driver
-from .hid import Decoder
+from .errors import DeviceError
+from .hid_reports import Decoder
 
 READ_TIMEOUT = 0.005        # s: the longest a read waits, so the thread notices a stop
-
-
-def _error(message):
-    from . import DeviceError
-    return DeviceError(message)
 
 
 class FrameReader:
@@ -88,7 +84,7 @@ class SerialDriver(Driver):
         try:
             self.line = serial.Serial(self.port, self.baudrate, timeout=READ_TIMEOUT, write_timeout=0.1)
         except (serial.SerialException, OSError, ValueError) as exc:
-            raise _error(f"device {self.name!r}: cannot open the serial port {self.port!r} "
+            raise DeviceError(f"device {self.name!r}: cannot open the serial port {self.port!r} "
                          f"(profile {self.profile.name!r}): {exc}") from None
         self.decoder.reset()
         self.held[:] = 0.0

@@ -33,15 +33,8 @@ from dataclasses import dataclass
 
 from ..blocks.numbers import is_whole, whole_number
 from ..graph.source import LDict, load_yaml
-from .hid_profiles import (
-    AXIS_KEYS,
-    BUTTON_KEYS,
-    FORCE_KEYS,
-    MAX_FORCE,
-    _field,
-    _fields,
-    _overlaps,
-)
+from .hid_profiles import AXIS_KEYS, BUTTON_KEYS, FORCE_KEYS, check_field, check_fields, check_overlaps
+from .limits import FORCE_CEILING
 from .yaml_checks import Checker as _Checker
 from .yaml_checks import line_of as _line
 
@@ -182,9 +175,9 @@ def _input(chk, doc):
     if timeout is not None and interval is not None and timeout <= interval:
         chk.add(_line(inp, "timeout"), f"input.timeout: {timeout:g} s must be longer than the interval {interval:g} s")
     names = {}
-    axes = _fields(chk, inp, "axes", "input", AXIS_KEYS, 8, length, names)
-    buttons = _fields(chk, inp, "buttons", "input", BUTTON_KEYS, 1, length, names)
-    _overlaps(chk, axes + buttons, "input")
+    axes = check_fields(chk, inp, "axes", "input", AXIS_KEYS, 8, length, names)
+    buttons = check_fields(chk, inp, "buttons", "input", BUTTON_KEYS, 1, length, names)
+    check_overlaps(chk, axes + buttons, "input")
     position = chk.text(inp, "position", "input", None)
     velocity = chk.text(inp, "velocity", "input", "estimate")
     for key, value in (("position", position), ("velocity", velocity)):
@@ -206,7 +199,7 @@ def _output(chk, doc):
     node = outp.get("force")
     if isinstance(node, LDict):
         node.line = _line(outp, "force")
-    force = _field(chk, "force", node, "output.force", FORCE_KEYS, 16, length, _line(outp, "force"))
+    force = check_field(chk, "force", node, "output.force", FORCE_KEYS, 16, length, _line(outp, "force"))
     return SerialOutput(framing, force) if force is not None else None
 
 
@@ -219,8 +212,8 @@ def _parse(doc, path, problems):
     name = chk.text(doc, "name", "profile", os.path.splitext(os.path.basename(path))[0])
     baud = chk.integer(doc, "baudrate", "profile", 300, 50_000_000, default=115200)
     max_force = chk.number(doc, "max_force", "profile", None, required=True, positive=True)
-    if max_force is not None and max_force > MAX_FORCE:
-        chk.add(_line(doc, "max_force"), f"profile.max_force: {max_force:g} N is above {MAX_FORCE:g} N")
+    if max_force is not None and max_force > FORCE_CEILING:
+        chk.add(_line(doc, "max_force"), f"profile.max_force: {max_force:g} N is above {FORCE_CEILING:g} N")
     inp, out = _input(chk, doc), _output(chk, doc)
     if not chk.ok:
         return None

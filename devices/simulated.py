@@ -16,18 +16,19 @@ Its `max_force` (default 4 N) is at most SIMULATED_MAX_FORCE = 50 N, the bound t
 HID profile states its device's: about what the strongest grounded desktop haptic devices give at
 their peak, so a patch tuned on the simulation asks nothing absurd of a real device.
 """
-import math
 
 import numpy as np
 
 from ..blocks import Buffer, External, Out, Param, State, helper
 from ..blocks.device import Haptic, clamp_force
 from ..graph.engine import Driver
-from .kinds import SIMULATED_MAX_FORCE, SimulatedKind
+from .driver_kind import listed_axes
+from .limits import SIMULATED_MAX_FORCE, force_limit
+from .recordable import Recordable
 from .script import script_data, script_point, script_time
 
-# SIMULATED_MAX_FORCE (50 N): the simulated device's bound on its max_force (see the module's doc);
-# hid_profiles.MAX_FORCE (1000 N) is another thing: the most any profile or device entry may state
+# SIMULATED_MAX_FORCE (50 N, devices/limits.py): the simulated device's bound on its max_force (see
+# the module's doc); limits.FORCE_CEILING (1000 N) is another thing: the most any profile or entry may state
 
 
 @helper
@@ -124,17 +125,7 @@ class ScriptedHaptic(SimulatedHaptic, name="scripted_haptic"):
         return pos, vel, anchor_key
 
 
-def force_limit(name, driver, value, bound, what):
-    """A device's max_force [N], checked: a finite number > 0 and at most `bound` (DeviceError)."""
-    from . import DeviceError
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise DeviceError(f"device {name!r} ({driver}): max_force {value!r} must be a finite number of newtons > 0")
-    if value > bound:
-        raise DeviceError(f"device {name!r} ({driver}): max_force {value:g} N is above {what}, {bound:g} N")
-    return float(value)
-
-
-class SimulatedDevice(Driver):
+class SimulatedDevice(Driver, Recordable):
     """Driver of one simulated device entry. Its model (ScriptedHaptic) follows the script inside
     the kernel; the driver keeps the force it was sent and, only while a take is recorded
     (`recording`), fills the hand's trajectory into its columns for the take."""
@@ -148,14 +139,14 @@ class SimulatedDevice(Driver):
         self.name = name
         script = spec.get("script") or [{"t": 0.0, "x": 0.0}]
         # other axes and buttons: keyframes that carry the key are interpolated, others skipped
-        self.axes = list(axes) if axes is not None else SimulatedKind().axes(spec)
+        self.axes = list(axes) if axes is not None else listed_axes(spec)
         self.hold = bool(spec.get("hold", True))
         self.script = script_data(script, self.axes, self.hold)
         self.times = self.script["times"]
         rows = self.script["tracks"].reshape(1 + len(self.axes), len(self.times))
         self.xs, self.axis_tracks = rows[0], list(rows[1:])
         self.columns = ("hand_x", "hand_v") + tuple(self.axes)
-        self.max_force = force_limit(name, SimulatedKind.name, spec.get("max_force", 4.0), SIMULATED_MAX_FORCE,
+        self.max_force = force_limit(name, "simulated", spec.get("max_force", 4.0), SIMULATED_MAX_FORCE,
                                      "the simulated device's bound")
         self.values = {"mass": float(spec.get("mass", 0.05)),
                        "hand_stiffness": float(spec.get("hand_stiffness", 400.0)),

@@ -38,9 +38,9 @@ import sys
 import jsonschema
 import numpy as np
 
-from ..graph.patch import device_axes
-from . import DeviceError
-from .kinds import KINDS, SimulatedKind, input_kind, kinds_of
+from ..graph.entries import device_axes
+from .errors import DeviceError
+from .table import driver_kinds, input_kind, kinds_of
 
 MAGIC = b"HGREC\x00"
 VERSION = 1
@@ -51,11 +51,11 @@ MAX_COLUMNS = 4096
 
 # The device models a take may name, as data: "model" in a driver's entry -> the block type, as
 # the driver kinds that simulate their device declare it, with the columns each model reads first.
-MODELS = {kind.name: kind.model for kind in KINDS if kind.model is not None}
-MODEL_COLUMNS = {kind.name: tuple(kind.model_columns) for kind in KINDS if kind.model is not None}
+MODELS = {kind.name: kind.model for kind in driver_kinds().values() if kind.model is not None}
+MODEL_COLUMNS = {kind.name: tuple(kind.model_columns) for kind in driver_kinds().values() if kind.model is not None}
 # Takes written before the model was named as data held a `module:qualname`; only these known
 # strings are understood (looked up, never imported).
-LEGACY_TYPES = {"hapticgraph.devices.simulated:SimulatedHaptic": SimulatedKind.name}
+LEGACY_TYPES = {"hapticgraph.devices.simulated:SimulatedHaptic": "simulated"}
 FORCE_COLUMN = "force"     # a take's label of the force column of each device (format version 1)
 
 _NAMES = {"type": "array", "maxItems": MAX_COLUMNS, "items": {"type": "string", "maxLength": 256}}
@@ -274,13 +274,14 @@ class Take:
     def force_of(self, device):
         return self.forces[:, self.header["forces"].index(device)]
 
-    def driver(self, name):
+    def driver_info(self, name):
+        """What the take's header says of device (or input) `name`: its columns, model, values;
+        TakeError if it has none of that name. (hapticgraph.devices.replay feeds it.)"""
         info = self.header["drivers"].get(name)
         if info is None:
             have = ", ".join(sorted(self.header["drivers"])) or "none"
             raise TakeError(f"{self.path} has no device or input named {name!r} (it has: {have})")
-        from .replay import ReplayDriver  # late: replay.py imports this module
-        return ReplayDriver(name, self, info)
+        return info
 
     def check(self, patch):
         """Raise TakeError unless this take was recorded from (a version of) this patch."""

@@ -1,12 +1,15 @@
 """`hapticgraph play --watch`: reload the patch when its file (or a plugin file) changes, keep the
 state of every unchanged block and the drivers of unchanged devices, and swap the new session in
 at a block boundary; a patch with errors is reported and the old one keeps playing."""
-import copy
 import os
 import sys
 import threading
 
-from .kinds import same as _same
+from ..graph.entries import driver_of
+from ..graph.errors import PatchError
+from .driver_kind import same
+from .opening import open_drivers
+from .table import input_kind, kinds_of
 
 
 def _incoming(patch):
@@ -37,7 +40,7 @@ def carry_state(old, new):
         was = old.patch.blocks.get(name)
         if was is None or was.cls is not new.patch.blocks[name].cls:
             continue
-        if not _same(_state_values(old, name), _state_values(new, name)):
+        if not same(_state_values(old, name), _state_values(new, name)):
             continue
         if into_old.get(name, []) != into_new.get(name, []):
             continue
@@ -54,10 +57,7 @@ def carry_state(old, new):
 def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=None):
     """Drivers for `new_patch`: the running ones of devices (and audio inputs) whose driver kind
     keeps them (by default: the entry did not change); the others are opened. Returns (drivers,
-    opened, unused old ones)."""
-    from ..graph.patch import driver_of
-    from . import open_drivers
-    from .kinds import input_kind, kinds_of
+    opened, the unused old ones as (name, driver) pairs)."""
     kinds, old_kinds = kinds_of(new_patch), kinds_of(old_patch)
     keep, changed_devices, changed_inputs = {}, {}, {}
     for name, spec in new_patch.devices.items():
@@ -77,20 +77,19 @@ def reload_drivers(old_patch, new_patch, old_drivers, choices=None, live_input=N
             keep[inst.name] = old_drivers[inst.name]
         else:
             changed_inputs[inst.name] = inst
-    view = copy.copy(new_patch)
-    view.devices = changed_devices
-    view.blocks = changed_inputs
-    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input)
+    view = new_patch.subset(changed_inputs.values(), devices=changed_devices)   # the part to open drivers for
+    opened = open_drivers(view, {k: v for k, v in (choices or {}).items() if k in changed_devices}, live_input,
+                          running=keep)
     drivers = dict(keep)
     drivers.update(opened)
-    unused = [d for name, d in old_drivers.items() if drivers.get(name) is not d]
+    unused = [(name, d) for name, d in old_drivers.items() if drivers.get(name) is not d]
     return drivers, opened, unused
 
 
 def plugin_files(patch):
     """The source files of the plugin block types a patch loaded (its `plugins:`)."""
     files = set()
-    registry = getattr(patch, "registry", None)
+    registry = patch.registry
     for name, cls in (registry.types.items() if registry is not None else ()):
         if not str(registry.origin.get(name, "")).startswith("plugin"):
             continue
@@ -103,14 +102,16 @@ def plugin_files(patch):
 
 class Watcher:
     """Polls the modification times of a patch file and of its plugin files; on a change, loads
-    and compiles the new patch on its own thread (an edited plugin is imported again) and hands it
-    to the player, keeping the state of every unchanged block. A patch with errors, or a patch or
-    plugin file that was deleted, is reported in one line and the old patch keeps playing."""
+    the new patch (`load_patch()`; an edited plugin is imported again) and hands it to the playing
+    hapticgraph.Session (`player.session.swap`: compiled on this thread, applied by the audio
+    callback at a block boundary, keeping the state of every unchanged block). A patch with
+    errors, or a patch or plugin file that was deleted, is reported in one line and the old patch
+    keeps playing."""
 
-    def __init__(self, player, path, make_session, interval=0.25, stream=None):
-        self.player, self.path, self.make_session = player, path, make_session
+    def __init__(self, player, path, load_patch, interval=0.25, stream=None):
+        self.player, self.path, self.load_patch = player, path, load_patch
         self.interval, self.stream = interval, stream or sys.stderr
-        self.files = [os.fspath(path)] + plugin_files(player.bound.session.prog.patch)
+        self.files = [os.fspath(path)] + plugin_files(player.session.patch)
         self.stamps = {f: self._mtime(f) for f in self.files}
         self.missing = set()
         self._stop = threading.Event()
@@ -161,45 +162,38 @@ class Watcher:
                 _forget_module(f)
         ok = self.reload()
         if ok:
-            self.files = [self.files[0]] + plugin_files(self.player.bound.session.prog.patch)
+            self.files = [self.files[0]] + plugin_files(self.player.session.patch)
             for f in self.files:
                 self.stamps.setdefault(f, self._mtime(f))
         return ok
 
     def reload(self):
-        from ..graph.errors import PatchError
-        player = self.player
-        old = player.bound.session
+        """Load, compile and swap in the patch; True once it plays."""
+        player, name = self.player, os.path.basename(self.path)
+        session = player.session
         switch = sys.getswitchinterval()
         sys.setswitchinterval(min(switch, 0.0002))   # let the audio callback in while compiling
         try:
-            session, opened, unused = self.make_session(old)
-            bound = player.bind(session)
-            bound.carry, bound.kept = carry_state(old.prog, session.prog)
-            for d in opened.values():
-                d.start(session.rate)
+            swap = session.swap(self.load_patch())
         except PatchError as exc:
             player.reload_errors += 1
-            print(f"hapticgraph: {os.path.basename(self.path)} changed but has errors; still playing the "
-                  "previous version:", file=self.stream)
+            print(f"hapticgraph: {name} changed but has errors; still playing the previous version:",
+                  file=self.stream)
             for p in exc.problems:
                 print(f"  {p}", file=self.stream)
             return False
         except Exception as exc:  # noqa: BLE001 - a bad reload never stops the music
             player.reload_errors += 1
-            print(f"hapticgraph: cannot reload {os.path.basename(self.path)}: {exc}; still playing the "
-                  "previous version", file=self.stream)
+            print(f"hapticgraph: cannot reload {name}: {exc}; still playing the previous version", file=self.stream)
             return False
         finally:
             sys.setswitchinterval(switch)
-        if not player.offer(bound):
+        if not swap.wait(5.0):
             print("hapticgraph: reload not swapped in (the stream stopped)", file=self.stream)
             return False
-        for d in unused:
-            d.stop()
-        kept = sorted(bound.kept)
-        print(f"hapticgraph: reloaded {os.path.basename(self.path)} at {old.t / old.rate:.3f} s; kept the "
-              f"state of {len(kept)} block(s){': ' + ', '.join(kept) if kept else ''}", file=self.stream)
+        kept = swap.kept
+        print(f"hapticgraph: reloaded {name} at {swap.at / session.rate:.3f} s; kept the state of {len(kept)} "
+              f"block(s){': ' + ', '.join(kept) if kept else ''}", file=self.stream)
         return True
 
 

@@ -52,14 +52,16 @@ def put_in_place(tmp, target):
 
 
 class AudioWriter:
-    """Frames × channels appended block by block to `path` (format by extension, see audio_format).
+    """Frames × channels appended block by block to `path` (format by extension, see audio_format,
+    unless `container` names another libsndfile major format, as RF64 for a WAV past 4 GB).
     The samples go to a temporary file beside it; `close()` finishes the header (libsndfile writes
     the true sizes) and renames it onto `path` — also after a failed write, so what was written
     before a full disk is kept. PCM subtypes clip at ±1 instead of wrapping around."""
 
-    def __init__(self, path, rate, channels, subtype=None):
+    def __init__(self, path, rate, channels, subtype=None, container=None):
         self.path = str(path)
         self.format, self.subtype = audio_format(self.path, subtype)
+        self.format = container or self.format      # "RF64": a .wav past 4 GB (its 32-bit sizes cannot say)
         self.clip = self.subtype.startswith("PCM")
         self.tmp = beside(self.path)
         try:

@@ -107,7 +107,7 @@ def isolated(patch, inst):
         feeds.append(feed)
         connections.append(Connection(Endpoint(feed.name, None, IsolationFeed.y.name),
                                       Endpoint(inst.name, None, port), inst.line))
-    return patch.subset(f"check_{inst.cls.type_name}", feeds + [inst], connections)
+    return patch.subset(feeds + [inst], connections, name=f"check_{inst.cls.type_name}")
 
 
 def plugin_blocks(patch):

@@ -130,9 +130,11 @@ class Patch:
     def __repr__(self):
         return f"<Patch {self.name!r} from {self.file}: {len(self.blocks)} blocks at {self.rate:g} Hz>"
 
-    def subset(self, name, blocks, connections):
-        """A part of this patch (or blocks added to it) under another name: `blocks` (Instances,
-        in schedule order) and the `connections` between them; its file, document, rate,
-        devices and registry are this patch's."""
-        return replace(self, name=name, blocks={b.name: b for b in blocks}, connections=list(connections),
-                       order=[b.name for b in blocks])
+    def subset(self, blocks, connections=(), devices=None, name=None):
+        """A part of this patch (or blocks added to it): `blocks` (Instances, in schedule order),
+        the `connections` between them, `devices` (a mapping; default: all of this patch's) and
+        `name` (default: this patch's); its file, document, rate and registry are this patch's."""
+        blocks = list(blocks)
+        return replace(self, name=self.name if name is None else name, blocks={b.name: b for b in blocks},
+                       connections=list(connections), order=[b.name for b in blocks],
+                       devices=self.devices if devices is None else devices)

@@ -25,13 +25,14 @@ DEFAULT_RATE = 44100.0
 MAX_BLOCKS = 1000
 
 
-def load(path, overrides=(), registry=None, drivers=None):
+def load(path, overrides=(), registry=None, drivers=None, text=None):
     """Load and check a patch file; raise PatchError listing every problem found.
 
     `drivers` (driver kinds, see hapticgraph.graph.registry) replaces the registry's: the device
-    drivers the patch's `devices:` entries may name."""
+    drivers the patch's `devices:` entries may name. `text`, when given, is the patch's text,
+    read instead of the file (an edit not yet saved; plugins and problems still relative to `path`)."""
     path = os.fspath(path)
-    doc, problems = _read_document(path)
+    doc, problems = _read_document(path, text)
     if registry is None:
         registry = Registry(drivers=drivers)
     elif drivers is not None:
@@ -71,10 +72,10 @@ def _prepare(doc, registry, problems):
     return doc
 
 
-def _read_document(path):
+def _read_document(path, text=None):
     """The patch's YAML document (an LDict) and its problem collector; PatchError unless it is a
     mapping of format version 1."""
-    doc, problems = load_yaml(path)
+    doc, problems = load_yaml(path, text)
     if doc is None:
         problems.raise_if_any()
     if not isinstance(doc, LDict):

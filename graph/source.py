@@ -356,9 +356,14 @@ def line_of(doc, path):
     return line
 
 
-def load_yaml(path):
-    """(document, problems) for a patch file."""
+def load_yaml(path, text=None):
+    """(document, problems) for a patch file; `text`, when given, is read instead of the file
+    (an edited patch not yet saved: problems still name `path`)."""
     problems = Collector(path)
-    text = read_text(path, problems)
+    if text is None:
+        text = read_text(path, problems)
+    elif len(text) > MAX_BYTES or "\x00" in text:
+        problems.add(1, f"a patch is text of at most {MAX_BYTES // (1024 * 1024)} MB")
+        text = None
     doc = parse(text, problems) if text is not None else None
     return doc, problems

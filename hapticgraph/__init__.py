@@ -18,9 +18,11 @@ __version__ = "0.1.0"
 
 
 def _device_drivers():
-    """The driver kinds of hapticgraph.devices: what a patch's `devices:` entries may name. The
-    loader (graph/) imports nothing from devices/; this top floor hands them over."""
-    from .devices.kinds import driver_kinds
+    """The one table of drivers (hapticgraph.devices.table, read from the entry-point group
+    `hapticgraph.drivers`): what a patch's `devices:` entries may name. The loader (graph/)
+    imports nothing from devices/; this top floor hands the table over, when a patch is loaded
+    (imported then, to keep `import hapticgraph` light)."""
+    from .devices.table import driver_kinds
     return driver_kinds()
 
 
@@ -103,6 +105,23 @@ def render(patch, seconds=1.0, probes=(), engine="compiled", progress=None, devi
                    safety=safety, chunk=chunk, runaway=runaway)
 
 
+def sweep(spec_or_path, out, client=None, **options):
+    """Render every variant of a sweep file (or a loaded SweepSpec) on Dask into the folder `out`
+    (manifest.csv, audio/); `client` a dask.distributed Client, else a local cluster. Returns the
+    manifest's rows (a pandas DataFrame when pandas is installed). See hapticgraph.sweeps.sweep
+    for the options (workers, scheduler, scheduler_file, resume, limit, progress)."""
+    from .sweeps import sweep as _sweep
+    return _sweep(spec_or_path, out, client=client, **options)
+
+
+def fit(patch, target, axes, client=None, **options):
+    """Find the values of `axes` ({"block.param": (min, max)} or an axes file) whose render of
+    `patch` matches the recording `target`, on Dask; a FitResult (`.values`, `.distance`,
+    `.patch_path`, `.rows`). See hapticgraph.fitting.fit for the options."""
+    from .fitting import fit as _fit
+    return _fit(patch, target, axes, client=client, **options)
+
+
 __all__ = ["Block", "Buffer", "In", "Out", "Param", "State", "helper", "Patch", "Registry", "Render", "Session",
-           "load", "check", "render", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
+           "load", "check", "render", "sweep", "fit", "PatchError", "Problem", "PlanError", "SafetyStop", "DeviceError",
            "__version__"]

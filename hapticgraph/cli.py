@@ -28,6 +28,9 @@ COMMANDS = {
     "graph": ("cli_inspect", "cmd_graph"),
     "plot": ("cli_inspect", "cmd_plot"),
     "modes": ("cli_inspect", "cmd_modes"),
+    "studio": ("studio.cli", "cmd_studio"),
+    "sweep": ("cli_sweep", "cmd_sweep"),
+    "fit": ("cli_sweep", "cmd_fit"),
 }
 
 

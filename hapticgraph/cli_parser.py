@@ -16,7 +16,9 @@ def build_parser():
                "exit status: 0 success, 2 a patch or command-line error, 1 anything else")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in (_add_run, _add_play, _add_devices, _add_check, _add_blocks, _add_schema, _add_graph, _add_plot,
-                _add_modes):
+                _add_modes, _add_studio):
+        add(sub)
+    for add in (_add_sweep, _add_fit):      # many renders on Dask (cli_sweep)
         add(sub)
     return ap
 
@@ -192,3 +194,78 @@ def _add_modes(sub):
     modes.add_argument("--count", type=int, default=20, metavar="N", help="modes per network (default 20)")
     modes.add_argument("--json", action="store_true", help="machine-readable")
     _overrides(modes)
+
+
+# -- studio (issue 22): the design page --------------------------------------------------------
+def _add_studio(sub):
+    studio = _command(sub, "studio", "design an instrument in a browser page while it plays",
+                      "Serve a local page that shows the patch's instrument moving, shapes it with the mouse "
+                      "(lock, cut, join, place microphones and excitations, parameters) while it plays and "
+                      "saves every edit back into the patch with its comments kept. The first line printed is "
+                      "the page's URL with its token; the WebSocket protocol is in docs/studio.md.",
+                      ["hapticgraph studio patches/cymatic_block.yaml",
+                       "hapticgraph studio patches/cymatic_sheet.yaml --audio browser --no-browser",
+                       "hapticgraph studio my_string.yaml --audio none --port 8765"])
+    studio.add_argument("patch")
+    studio.add_argument("--host", default="127.0.0.1",
+                        help="address to serve on (default 127.0.0.1: this machine only)")
+    studio.add_argument("--port", type=int, default=0, help="port (default 0: any free one)")
+    studio.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    studio.add_argument("--audio", choices=("card", "browser", "none"), default=None,
+                        help="card: the sound card paces the sound, as play; browser: paced by the clock and "
+                             "played by the page; none: paced by the clock, silent (default: card when a sound "
+                             "card opens, else browser)")
+    studio.add_argument("--audio-device", metavar="D", help="with --audio card: the output device, as in play")
+    studio.add_argument("--blocksize", type=int, default=256, metavar="N", help="samples per block (default 256)")
+    studio.add_argument("--fps", type=float, default=60.0, help="most cell frames a second sent to a page (default 60)")
+    _device_option(studio)
+
+
+# -- sweep and fit: many renders on a Dask cluster (hapticgraph/cli_sweep.py) ---------------------
+
+def _cluster_options(parser):
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="worker processes of the local Dask cluster (default: one per core)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    parser.add_argument("--scheduler-file", metavar="F", help="a running Dask cluster's scheduler file")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _add_sweep(sub):
+    sweep = _command(sub, "sweep", "render every variant of a sweep file on Dask, with a manifest",
+                     "Render every variant of a sweep file (a patch, axes of parameter values, a sampler) "
+                     "on a Dask cluster, a local one by default: DIR/manifest.csv gets one row per variant "
+                     "(status, features, audio file) as results arrive, audio goes to DIR/audio/. Every "
+                     "value is checked before anything runs (FILE:LINE, exit 2); a variant that fails is "
+                     "a row. Exit 0 when every variant is ok, 1 otherwise.",
+                     ["hapticgraph sweep timbre.yaml --out runs/timbre",
+                      "hapticgraph sweep timbre.yaml --out runs/timbre --dry-run",
+                      "hapticgraph sweep timbre.yaml --out runs/timbre --resume --limit 100",
+                      "hapticgraph sweep timbre.yaml --out runs/timbre --scheduler tcp://10.0.0.5:8786"])
+    sweep.add_argument("sweep", metavar="SWEEP.yaml")
+    sweep.add_argument("--out", required=True, metavar="DIR", help="the results folder")
+    _cluster_options(sweep)
+    sweep.add_argument("--resume", action="store_true",
+                       help="continue the sweep in DIR: skip variants already ok with a whole audio file")
+    sweep.add_argument("--limit", type=int, metavar="N", help="render at most N of the variants still to do")
+    sweep.add_argument("--dry-run", action="store_true", help="check the sweep and print the variant table; render nothing")
+
+
+def _add_fit(sub):
+    fit = _command(sub, "fit", "find the parameter values whose sound matches a recording",
+                   "Fit the axes of AXES.yaml (block.param: {min, max}) so that the patch's sound matches "
+                   "TAKE.wav: a multi-resolution spectral distance plus feature errors, minimised by "
+                   "scipy's differential evolution evaluated in parallel on Dask. Every evaluation is a row of RESULTS/manifest.csv; the "
+                   "best patch is written with the found values.",
+                   ["hapticgraph fit ks.yaml --target take.wav --axes axes.yaml --out ks_fitted.yaml",
+                    "hapticgraph fit ks.yaml --target take.wav --axes axes.yaml --popsize 8 --maxiter 30"])
+    fit.add_argument("patch")
+    fit.add_argument("--target", required=True, metavar="TAKE.wav", help="the recording to match")
+    fit.add_argument("--axes", required=True, metavar="AXES.yaml", help="block.param: {min: …, max: …, scale: linear|log}")
+    fit.add_argument("--out", metavar="PATCH.yaml", help="the best patch (default: PATCH_fit.yaml beside PATCH)")
+    fit.add_argument("--results", metavar="DIR", help="the folder of the evaluations' manifest (default: PATCH_fit/)")
+    fit.add_argument("--seconds", type=float, metavar="S", help="length rendered (default: the target's, at most 2 s)")
+    fit.add_argument("--seed", type=int, default=1, help="the optimiser's seed (default 1)")
+    fit.add_argument("--popsize", type=int, default=10, help="population per axis (default 10)")
+    fit.add_argument("--maxiter", type=int, default=40, help="generations at most (default 40)")
+    _cluster_options(fit)

@@ -4,12 +4,14 @@ import signal
 import sys
 
 from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files
-from .devices import DeviceError, audio, check_choices, open_drivers
-from .devices.kinds import input_kind
+from .cli_sizes import size_take
+from .devices import DeviceError, audio, check_choices
+from .devices.table import driver_origins, input_kind
 from .devices.record import Recorder
 from .devices.replay import replay_drivers
 from .graph.patch import load
 from .graph.program import PlanError
+from .session import Session
 
 
 def cmd_play(args):
@@ -41,19 +43,23 @@ def cmd_play(args):
     except audio.AudioError as exc:
         if recorder is not None:
             recorder.close()
+        session.close()
         raise UsageError(str(exc)) from None
-    watcher = _start_watcher(args, player, choices) if args.watch else None
+    watcher = _start_watcher(args, player) if args.watch else None
     report = _run(args, patch, player, watcher)
     return _report(args, player, report)
 
 
 def _check_record(args, patch):
     """--record TAKE writes TAKE.hgrec and TAKE.wav: neither may be a file this play reads (the
-    patch, a plugin, an audio_in file, the take --replay plays), checked before any device opens."""
+    patch, a plugin, an audio_in file, the take --replay plays), and with --seconds the WAV must
+    fit its format and the disk (cli_sizes), checked before any device opens."""
     from .devices.take import take_paths
     inputs = input_files(patch, args.replay)
     for path in take_paths(args.record):
         check_output("--record", path, inputs, "play")
+    if args.seconds is not None:
+        size_take(take_paths(args.record)[1], round(args.seconds * patch.rate), patch.rate, audio_channels(patch))
 
 
 def _check_options(args):
@@ -105,20 +111,24 @@ def _parse_latency(text):
 
 
 def _open_session(args, patch, choices):
-    """The drivers (the take's with --replay) and the play session; (session, live inputs,
-    output device, input device). With --replay, --seconds defaults to the take's length."""
+    """The play session (hapticgraph.Session; its drivers the take's with --replay): (session,
+    live inputs, output device, input device). With --replay, --seconds defaults to the take's
+    length. Safety is on, as in `run`: a runaway at 1e3 stops the play."""
+    session = None
     try:
         out_dev = audio.find_device(args.audio_device, "output", max(1, audio_channels(patch)))
+        drivers = None
         if args.replay:
             take, drivers = replay_drivers(patch, args.replay)
             if args.seconds is None and take.frames:
                 args.seconds = take.seconds
-        else:
-            drivers = open_drivers(patch, choices, live_input=audio.LiveInput.for_block)
-        live = [d for d in drivers.values() if isinstance(d, audio.LiveInput)]
+        session = Session.open(patch, probes=args.probe, devices=choices, drivers=drivers, blocksize=args.blocksize,
+                               editable=args.console, live_input=audio.LiveInput.for_block, runaway=1e3)
+        live = [d for d in session.drivers.values() if isinstance(d, audio.LiveInput)]
         in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
-        session = audio.play_session(patch, drivers, args.blocksize, probes=args.probe, editable=args.console)
     except (PlanError, DeviceError, audio.AudioError) as exc:
+        if session is not None:
+            session.close()
         raise UsageError(str(exc)) from None
     return session, live, out_dev, in_dev
 
@@ -135,24 +145,19 @@ def _open_recorder(args, patch, choices, session, live):
         if feeder is not None and inst.name not in kinds:
             kinds[inst.name] = kinds.get(inst.values.get("device"), feeder.name)
     try:
-        return Recorder(args.record, session, max(1, session.prog.channels), args.blocksize, kinds=kinds)
+        return Recorder(args.record, session.program, max(1, session.channels), args.blocksize, kinds=kinds)
     except OSError as exc:
-        session.stop()
+        session.close()
         raise UsageError(f"--record {args.record!r}: {exc.strerror or exc}") from None
     except DeviceError as exc:
-        session.stop()
+        session.close()
         raise UsageError(str(exc)) from None
 
 
-def _start_watcher(args, player, choices):
-    """--watch: reload the patch when its files change, keeping the drivers that did not change."""
-    def make_session(old):
-        new_patch = load(args.patch, overrides=args.overrides)
-        drivers, opened, unused = audio.reload_drivers(old.prog.patch, new_patch, old.prog.drivers, choices,
-                                                       live_input=audio.LiveInput.for_block)
-        return (audio.play_session(new_patch, drivers, args.blocksize, probes=args.probe, editable=args.console),
-                opened, unused)
-    return audio.Watcher(player, args.patch, make_session).start()
+def _start_watcher(args, player):
+    """--watch: reload the patch when its files change (Session.swap keeps the drivers of the
+    devices that did not change, and the state of the blocks that did not)."""
+    return audio.Watcher(player, args.patch, lambda: load(args.patch, overrides=args.overrides)).start()
 
 
 def _run(args, patch, player, watcher):
@@ -162,7 +167,7 @@ def _run(args, patch, player, watcher):
     previous = signal.signal(signal.SIGTERM, terminate)
     if args.console:
         from .console import HELP, Console
-        Console(lambda: player.bound.session).start()
+        Console(lambda: player.session).start()
         print(f"hapticgraph: {HELP}", file=sys.stderr)
     until = f"for {args.seconds:g} s" if args.seconds else "until Ctrl-C"
     print(f"hapticgraph: playing {patch.name!r} {until} on {player.device_name}", file=sys.stderr)
@@ -199,7 +204,11 @@ def _report(args, player, report):
 
 
 def cmd_devices(args):
-    """Sound cards (PortAudio), MIDI ports and HID devices (hidapi)."""
+    """The drivers a patch may name (the table), sound cards (PortAudio), MIDI ports and HID
+    devices (hidapi)."""
+    print("Drivers (entry points hapticgraph.drivers):")
+    for name, origin in sorted(driver_origins().items()):
+        print(f"  {name:10s} {origin}")
     print("Sound cards (PortAudio):")
     try:
         cards = audio.sound_cards()

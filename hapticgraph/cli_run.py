@@ -1,12 +1,15 @@
 """`hapticgraph run`: render a patch offline into an audio file and a probes file. Every output
-is checked before any work (it must not overwrite a file the run reads); what was rendered is
-written whatever stops the render (a signal, a safety stop, a full disk)."""
+is checked before any work (it must not overwrite a file the run reads, and its size, known from
+the length, the rate, the channels and the format, must fit the format, the disk and the process's
+file-size limit: cli_sizes); what was rendered is written whatever stops the render (a signal, a
+safety stop, a full disk). The render streams block by block: memory is flat in the duration."""
 import math
 import os
 import signal
 import sys
 
 from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files, same_file
+from .cli_sizes import size_outputs
 from .devices import DeviceError, open_drivers
 from .devices.files import FileSink, OutputError
 from .devices.wav import AudioFileError
@@ -69,9 +72,14 @@ def _open_sink(patch, args):
     if not channels and not args.probe:
         print(f"hapticgraph: {args.patch} has no audio_out block and no --probe was given; nothing written",
               file=sys.stderr)
-    try:
+    frames = round(args.seconds * patch.rate)
+    try:               # every size known before the first sample: refused, or RF64 for a WAV past 4 GB
+        plan = size_outputs(audio_path if channels else None, probes_path, frames, patch.rate, channels,
+                            len(args.probe), args.subtype)
+        for note in plan.notes:
+            print(f"hapticgraph: {note}", file=sys.stderr)
         return FileSink(audio_path if channels else None, probes_path, patch.rate, channels, args.probe,
-                        subtype=args.subtype)
+                        subtype=args.subtype, container=plan.container)
     except AudioFileError as exc:
         raise UsageError(f"--out {out!r}: {exc}") from None
     except OSError as exc:

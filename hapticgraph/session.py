@@ -21,8 +21,9 @@ from .blocks.network import parse_ref
 from .devices import Choice, open_drivers, parse_choice
 from .devices.watch import carry_state, reload_drivers
 from .graph.engine import Session as Engine
+from .graph.engine import stop_driver
 from .graph.patch import load
-from .graph.program import PlanError
+from .graph.errors import PlanError
 
 CELL_EDITS = ("lock", "unlock", "cut")
 
@@ -35,6 +36,7 @@ class Swap:
     def __init__(self, session, engine, carry, kept, opened, unused):
         self.session, self.engine, self.carry = session, engine, carry
         self.kept, self.opened, self.unused = sorted(kept), opened, unused
+        self.at = None              # the sample it began to play at
         self.applied = threading.Event()
 
     def wait(self, timeout=None):
@@ -80,9 +82,15 @@ class Session:
         elif overrides:
             raise ValueError("overrides apply to a patch file; give its path")
         choices = device_choices(devices)
-        if drivers is None:
+        opened = drivers is None
+        if opened:
             drivers = open_drivers(patch, choices, live_input=live_input)
-        return cls(patch, drivers, probes, blocksize, engine, editable, runaway, overrides, choices, live_input)
+        try:
+            return cls(patch, drivers, probes, blocksize, engine, editable, runaway, overrides, choices, live_input)
+        except BaseException:
+            for name, driver in drivers.items() if opened else ():
+                stop_driver(name, driver)         # the devices opened for a session that never ran
+            raise
 
     # -- facts -----------------------------------------------------------------------------------
     @property
@@ -279,21 +287,26 @@ class Session:
         return len(self._edits) + len(self._swaps)
 
     # -- swapping in an edited patch ----------------------------------------------------------------
-    def swap(self, patch, devices=None):
+    def swap(self, patch, devices=None, probes=None):
         """Compile `patch` (a Patch, or a path loaded with the session's overrides) now, and queue
         it for the next block boundary: the state of every block whose type, parameters and
         incoming connections did not change carries over, and the drivers of devices whose entry
-        did not change keep running. Returns a Swap. Raises PatchError, PlanError or DeviceError
-        (nothing changes then)."""
+        did not change keep running; `probes`, when given, replace the session's. Returns a Swap.
+        Raises PatchError, PlanError, DeviceError, or ValueError for another sample rate (nothing
+        changes then)."""
         for pending in tuple(self._swaps):
             self.withdraw(pending)
         self.retire()
         if isinstance(patch, (str, os.PathLike)):
             patch = load(patch, overrides=self.overrides)
         old = self._engine
+        if float(patch.rate) != old.rate:
+            raise ValueError(f"{patch.name!r} runs at {float(patch.rate):g} Hz, the session at {old.rate:g} Hz: "
+                             "open a new session for another rate")
         choices = self.choices if devices is None else device_choices(devices)
         drivers, opened, unused = reload_drivers(old.prog.patch, patch, old.prog.drivers, choices, self.live_input)
-        new = Engine(patch, self.probes, drivers, self.engine_name, blocksize=old.blocksize,
+        probes = self.probes if probes is None else tuple(probes)
+        new = Engine(patch, probes, drivers, self.engine_name, blocksize=old.blocksize,
                      runaway=self.runaway, editable=self.editable)
         carry, kept = carry_state(old.prog, new.prog)
         if old.started:
@@ -309,24 +322,27 @@ class Session:
             self._swaps.remove(swap)
         except ValueError:
             return False
-        for driver in swap.opened.values():
-            driver.stop()
+        for name, driver in swap.opened.items():
+            stop_driver(name, driver)
         return True
 
     def retire(self):
-        """Stop the drivers that applied swaps no longer use (never from the audio thread)."""
+        """Stop the drivers that applied swaps no longer use, each within its deadline
+        (graph.engine.stop_driver; never from the audio thread)."""
         while self._retired:
-            self._retired.popleft().stop()
+            name, driver = self._retired.popleft()
+            stop_driver(name, driver)
 
     def _switch(self, swap):
         old, new = self._engine, swap.engine
         for dst, src in swap.carry:
             np.copyto(dst, src)
-        new.t, new.started = old.t, old.started
+        new.t = swap.at = old.t
+        new.started = old.started
         self._engine = new
         self._cut = (0,)
         self._last = 0
-        self._retired.extend(swap.unused)
+        self._retired.extend(swap.unused)           # (name, driver) pairs
         self.swaps += 1
         swap.applied.set()
 

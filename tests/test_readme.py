@@ -294,7 +294,7 @@ def test_joystick_step_merges_into_the_tutorial_patch(workdir):
 
 
 def test_links_name_files_of_the_repository():
-    targets = re.findall(r"\]\(([^)#\s]+)\)", README)
+    targets = [t for t in re.findall(r"\]\(([^)#\s]+)\)", README) if not re.match(r"[a-z]+://", t)]  # web links aside
     targets += [t for t in re.findall(r"`([^`\s]+)`", README)
                 if re.match(r"(patches|examples|docs|benchmarks|tests|\.ci)/", t) and "*" not in t]
     assert targets

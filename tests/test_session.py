@@ -86,6 +86,14 @@ def test_swap_keeps_the_state_of_unchanged_blocks(write_patch):
     s.close()
 
 
+def test_a_swap_to_another_rate_is_refused(write_patch):
+    with hapticgraph.Session.open(write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml")) as s:
+        other = write_patch(SHEET.replace("GAIN", "1.0").replace("rate: 44100", "rate: 48000"), name="r.yaml")
+        with pytest.raises(ValueError, match="runs at 48000 Hz, the session at 44100 Hz"):
+            s.swap(other)
+        assert s.pending == 0
+
+
 def test_a_withdrawn_swap_changes_nothing(write_patch):
     a = write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml")
     s = hapticgraph.Session.open(a, blocksize=64)
@@ -105,5 +113,7 @@ def test_devices_and_their_columns(patches_dir):
         assert "arm" in s.drivers
     with pytest.raises(hapticgraph.DeviceError, match="unknown setting"):
         hapticgraph.Session.open(patches_dir / "fig7_bowed_string.yaml", devices={"arm": "simulated,weight=1"})
+    with pytest.raises(hapticgraph.PlanError, match="loop.nope"):
+        hapticgraph.Session.open(patches_dir / "karplus_strong.yaml", probes=["loop.nope"])
     with pytest.raises(ValueError, match="overrides apply to a patch file"):
         hapticgraph.Session.open(hapticgraph.load(patches_dir / "karplus_strong.yaml"), overrides=["loop.length=3"])

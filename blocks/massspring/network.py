@@ -51,7 +51,6 @@ class Network(LinearGroup):
         """Step on a stencil when `allowed` and the network is one uniform lattice of 1, 2 or 3
         dimensions with nothing irregular; else on the CSR lists (cells can then be locked and
         cut live)."""
-        self.stencils = allowed
         self.stencil = None
         only = self.components[0] if len(self.components) == 1 else None
         if allowed and only is not None and only.shape and len(only.shape) <= 3 and not self.springs \

@@ -164,25 +164,25 @@ connect:
 def test_reload_keeps_state_of_unchanged_blocks(write_patch):
     """carry_state (what --watch does at the swap): cells, delay lines and states of unchanged
     blocks continue exactly; the changed block starts afresh."""
-    from hapticgraph import load
-    from hapticgraph.devices import open_drivers
-    from hapticgraph.devices.audio import carry_state, play_session
-    a = load(write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml"))
-    b = load(write_patch(SHEET.replace("GAIN", "0.5"), name="b.yaml"))
-    full = play_session(a, open_drivers(a), 64)
+    from hapticgraph import Session
+    from hapticgraph.devices.audio import carry_state
+
+    def play_session(path):           # as `play` opens it
+        return Session.open(path, blocksize=64, editable=False)
+    a = write_patch(SHEET.replace("GAIN", "1.0"), name="a.yaml")
+    b = write_patch(SHEET.replace("GAIN", "0.5"), name="b.yaml")
+    full = play_session(a)
     ref = np.concatenate([full.process(64)[:, 0].copy() for _ in range(40)])
-    old = play_session(a, open_drivers(a), 64)
+    old = play_session(a)
     first = np.concatenate([old.process(64)[:, 0].copy() for _ in range(20)])
-    new = play_session(b, open_drivers(b), 64)
-    pairs, kept = carry_state(old.prog, new.prog)
+    pairs, kept = carry_state(old.program, play_session(b).program)
     assert sorted(kept) == ["hit", "loop", "out", "plate"]
-    for dst, src in pairs:
-        np.copyto(dst, src)
-    new.t = old.t
-    second = np.concatenate([new.process(64)[:, 0].copy() for _ in range(20)])
+    swap = old.swap(b)                # what --watch does: carry_state, applied at the block boundary
+    assert swap.kept == sorted(kept) and len(swap.carry) == len(pairs)
+    second = np.concatenate([old.process(64)[:, 0].copy() for _ in range(20)])
     assert np.array_equal(first, ref[:1280])
     assert np.array_equal(second, ref[1280:] * 0.5) and np.any(second != 0)
     # a changed lattice starts from rest; an unchanged delay line still holds its samples
-    c = load(write_patch(SHEET.replace("GAIN", "1.0").replace("damping: 0.01", "damping: 0.02"), name="c.yaml"))
-    _, kept = carry_state(old.prog, play_session(c, open_drivers(c), 64).prog)
+    c = write_patch(SHEET.replace("GAIN", "1.0").replace("damping: 0.01", "damping: 0.02"), name="c.yaml")
+    _, kept = carry_state(old.program, play_session(c).program)
     assert "plate" not in kept and "loop" in kept

@@ -14,8 +14,8 @@ from scipy.io import wavfile
 import hapticgraph
 from hapticgraph import load
 from hapticgraph.cli import main
-from hapticgraph.devices import DRIVERS, DeviceError, open_drivers
-from hapticgraph.devices.kinds import HidKind
+from hapticgraph.devices import DeviceError, driver_kinds, open_drivers
+from hapticgraph.devices.hid_kind import HidKind
 from hapticgraph.devices import hid as hidmod
 from hapticgraph.devices.hid import Decoder, HidDriver, ReplayTransport, list_hid_devices
 from hapticgraph.graph.engine import SafetyStop
@@ -489,7 +489,7 @@ def test_opening_a_device_that_is_not_there(write_patch, capsys):
     if any((d["vendor_id"], d["product_id"]) == (0x1209, 0x0001) for d in list_hid_devices()):
         pytest.skip("a device with pid.codes' test ids is connected")
     patch = load(write_patch(PADDLE_PATCH))
-    assert isinstance(DRIVERS["hid"], HidKind)     # the kind that opens HidDriver
+    assert isinstance(driver_kinds()["hid"], HidKind)     # the kind that opens HidDriver
     with pytest.raises(DeviceError, match=r"cannot open the HID device 1209:0001 .*hapticgraph devices"):
         open_drivers(patch)
     code = main(["run", str(patch.file), "--seconds", "0.01", "--quiet"])

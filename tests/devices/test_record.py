@@ -114,7 +114,7 @@ def test_take_from_another_patch_is_refused(tmp_path, write_patch, patches_dir):
     r = hapticgraph(["run", path, "--replay", bogus, "--out", tmp_path / "n.wav", "--quiet"], env)
     assert r.returncode == 2 and "not a hapticgraph take" in r.stderr
     with pytest.raises(TakeError, match="no device or input named 'hand'"):
-        Take(f"{take}.hgrec").driver("hand")
+        Take(f"{take}.hgrec").driver_info("hand")
 
 
 def test_ctrl_c_leaves_complete_files(tmp_path, write_patch, patches_dir):

@@ -125,16 +125,20 @@ def test_force_sent_is_what_a_device_receives_and_keeps_the_latest(write_patch, 
 def test_a_reload_that_changes_only_the_script_keeps_the_device_moving(write_patch):
     """--watch's carry_state: a new script carries the device's position and velocity over (the
     hand follows the new script from there); a new mass starts the device afresh."""
-    from hapticgraph.devices.audio import carry_state, play_session
-    old = play_session(p := _patch(write_patch), open_drivers(p), 64)
+    from hapticgraph import Session
+    from hapticgraph.devices.audio import carry_state
+
+    def play_session(patch):          # as `play` opens it
+        return Session.open(patch, blocksize=64, editable=False)
+    old = play_session(_patch(write_patch))
     for _ in range(20):
         old.process(64)
     script = SCRIPT.replace("{t: 0.13, x: -0.01, knob: 0.25}", "{t: 0.13, x: 0.02, knob: 0.25}")
     q = _patch(write_patch, script=script, name="q.yaml")
-    pairs, kept = carry_state(old.prog, play_session(q, open_drivers(q), 64).prog)
+    pairs, kept = carry_state(old.program, play_session(q).program)
     assert "pick" in kept and "spring" in kept
     heavier = load(write_patch(PATCH.format(script=SCRIPT, hold="false").replace("max_force: 2.0",
                                                                                  "max_force: 2.0, mass: 0.1"),
                                "h.yaml"))
-    _, kept = carry_state(old.prog, play_session(heavier, open_drivers(heavier), 64).prog)
+    _, kept = carry_state(old.program, play_session(heavier).program)
     assert "pick" not in kept

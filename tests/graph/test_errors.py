@@ -141,7 +141,7 @@ def test_a_patch_loaded_without_drivers_names_its_devices_drivers_unknown(tmp_pa
 
 
 def test_the_default_drivers_are_the_devices_packages(tmp_path):
-    from hapticgraph.devices.kinds import driver_kinds
+    from hapticgraph.devices.table import driver_kinds
     from hapticgraph.graph.patch import load
     path = tmp_path / "p.yaml"
     path.write_text(DEVICE_PATCH)

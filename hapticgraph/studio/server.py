@@ -1,0 +1,223 @@
+"""The studio's web server (Starlette): the page, its files and the WebSocket of docs/studio.md.
+
+Every HTTP request needs the token (`?token=T`, or the cookie the page's own response sets);
+the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio's own.
+"""
+import asyncio
+import contextlib
+import json
+import math
+import os
+import secrets
+from http.cookies import SimpleCookie
+from urllib.parse import parse_qs
+
+from starlette.applications import Starlette
+from starlette.responses import FileResponse, PlainTextResponse
+from starlette.routing import Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
+from starlette.websockets import WebSocketDisconnect
+
+from .commands import View, handle
+
+STATIC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "static")
+COOKIE = "hapticgraph_studio_token"
+LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
+STATUS_EVERY = 1.0
+STREAM_POLL = 0.01         # seconds between looks for audio and probe frames while some flow
+IDLE_POLL = 0.1            # ... while none do (each look takes the GIL from the sound thread)
+
+
+def new_token():
+    return secrets.token_urlsafe(24)
+
+
+def _query_token(scope):
+    values = parse_qs(scope.get("query_string", b"").decode("latin-1")).get("token", [])
+    return values[0] if values else None
+
+
+def _header(scope, name):
+    for k, v in scope.get("headers", ()):
+        if k.decode("latin-1").lower() == name:
+            return v.decode("latin-1")
+    return None
+
+
+def _cookie_token(scope):
+    raw = _header(scope, "cookie")
+    if not raw:
+        return None
+    jar = SimpleCookie()
+    try:
+        jar.load(raw)
+    except Exception:  # noqa: BLE001 - a malformed cookie header is no token
+        return None
+    return jar[COOKIE].value if COOKIE in jar else None
+
+
+class Guard:
+    """ASGI middleware: the token on every request, the Origin on the WebSocket."""
+
+    def __init__(self, app, token, host):
+        self.app, self.token, self.host = app, token, host
+
+    def _token_ok(self, given):
+        return isinstance(given, str) and secrets.compare_digest(given.encode(), self.token.encode())
+
+    def origin_ok(self, scope):
+        origin = _header(scope, "origin")
+        if origin is None:
+            return True                        # not a browser: the token is enough
+        port = scope.get("server", (None, None))[1]
+        names = set(LOOPBACK) | {self.host if ":" not in self.host else f"[{self.host}]"}
+        allowed = {f"http://{n}:{port}" for n in names}
+        if self.host not in ("127.0.0.1", "localhost", "::1"):
+            allowed.add(f"http://{_header(scope, 'host')}")     # told to serve other machines
+        return origin in allowed
+
+    async def __call__(self, scope, receive, send):
+        kind = scope["type"]
+        if kind == "websocket":
+            if not (self._token_ok(_query_token(scope)) and self.origin_ok(scope)):
+                await send({"type": "websocket.close", "code": 1008})
+                return
+        elif kind == "http":
+            if not (self._token_ok(_query_token(scope)) or self._token_ok(_cookie_token(scope))):
+                await PlainTextResponse("hapticgraph studio: a token is needed (open the URL the studio printed)",
+                                        status_code=403)(scope, receive, send)
+                return
+        await self.app(scope, receive, send)
+
+
+def build_app(studio, token, host="127.0.0.1", start=False):
+    """The ASGI app serving `studio` (a StudioSession) behind the token; `start`: the app's
+    lifespan starts the sound once the server is up (its imports and set-up then no longer
+    compete with the first blocks for the interpreter)."""
+    async def page(request):
+        index = os.path.join(STATIC, "index.html")
+        if not os.path.isfile(index):
+            return PlainTextResponse("hapticgraph studio: the page's files are not installed "
+                                     "(hapticgraph/studio/static/index.html)", status_code=404)
+        response = FileResponse(index, headers={"Cache-Control": "no-store"})
+        response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+        return response
+
+    async def socket(websocket):
+        await Connection(studio, websocket).run()
+
+    async def missing(request):
+        return PlainTextResponse("hapticgraph studio: the page's files are not installed", status_code=404)
+
+    files = (Mount("/static", app=StaticFiles(directory=STATIC), name="static") if os.path.isdir(STATIC)
+             else Route("/static/{path:path}", missing))
+    routes = [Route("/", page), WebSocketRoute("/ws", socket), files]
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app):
+        if start:
+            studio.start()
+        yield
+    return Guard(Starlette(routes=routes, lifespan=lifespan), token, host)
+
+
+def _finite(obj):
+    """`obj` with every NaN or infinite float replaced by None."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    return obj
+
+
+class Connection:
+    """One WebSocket: commands in, replies, events and frames out (one send at a time)."""
+
+    def __init__(self, studio, websocket):
+        self.studio, self.ws = studio, websocket
+        self.view = View(studio.fps)
+        self.events = asyncio.Queue()
+        self.sending = asyncio.Lock()
+
+    async def send_json(self, obj):
+        try:
+            text = json.dumps(obj, allow_nan=False, default=float)
+        except ValueError:                     # a NaN or an infinity: null, which JSON has
+            text = json.dumps(_finite(obj), allow_nan=False, default=float)
+        async with self.sending:
+            await self.ws.send_text(text)
+
+    async def send_bytes(self, data):
+        async with self.sending:
+            await self.ws.send_bytes(data)
+
+    async def run(self):
+        await self.ws.accept()
+        loop = asyncio.get_running_loop()
+
+        def listener(event):
+            loop.call_soon_threadsafe(self.events.put_nowait, event)
+        hello = await asyncio.to_thread(self._describe)
+        await self.send_json({**hello, "type": "hello"})
+        self.studio.listeners.append(listener)
+        tasks = [asyncio.create_task(t) for t in (self._events(), self._frames(), self._streams(), self._status())]
+        try:
+            await self._commands()
+        except (WebSocketDisconnect, RuntimeError):
+            pass
+        finally:
+            self.studio.listeners.remove(listener)
+            for t in tasks:
+                t.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
+
+    def _describe(self):
+        with self.studio.lock:
+            return self.studio.describe()
+
+    async def _commands(self):
+        while True:
+            text = await self.ws.receive_text()
+            try:
+                msg = json.loads(text)
+            except ValueError as exc:
+                await self.send_json({"type": "reply", "id": None, "cmd": None, "ok": False,
+                                      "error": f"studio: not JSON: {exc}", "errors": [f"studio: not JSON: {exc}"]})
+                continue
+            reply = await asyncio.to_thread(handle, self.studio, msg, self.view)
+            await self.send_json(reply)
+
+    async def _events(self):
+        while True:
+            await self.send_json(await self.events.get())
+
+    async def _frames(self):
+        """The latest cell frame, at most view.fps a second; frames made while one was being
+        sent are skipped, never queued."""
+        tap, sent = self.studio.tap, 0
+        while True:
+            fps = self.view.fps
+            await asyncio.sleep(1.0 / fps if fps > 0 else 0.2)
+            frame = tap.frame
+            if self.view.fps <= 0 or frame is None or frame[0] == sent:
+                continue
+            sent = frame[0]
+            wanted = self.view.lattices
+            for i, data in enumerate(frame[1]):
+                if wanted is None or i in wanted:
+                    await self.send_bytes(data)
+
+    async def _streams(self):
+        """Audio and probe frames, in order; the poll slows down while there are none."""
+        tap, seq = self.studio.tap, 0
+        while True:
+            await asyncio.sleep(STREAM_POLL if tap.streaming() else IDLE_POLL)
+            for seq, data in tap.since(seq):
+                await self.send_bytes(data)
+
+    async def _status(self):
+        while True:
+            await asyncio.sleep(STATUS_EVERY)
+            await self.send_json(self.studio.status())

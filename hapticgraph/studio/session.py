@@ -1,0 +1,210 @@
+"""The studio's state: the patch text being edited (with undo and redo), the patch it loads to,
+and the sound running it. Every edit is a new text that goes through the loader first; then it
+reaches the running sound (live parameters set, anything else swapped in keeping state) and
+only then becomes the text. Commands are run one at a time (`lock`)."""
+import difflib
+import os
+import sys
+import tempfile
+import threading
+import time
+
+from ..devices import DeviceError
+from ..graph.errors import PatchError
+from ..graph.patch import load
+from . import adapter
+from .describe import describe
+from .runner import CardRunner, ClockRunner
+from .tap import Tap
+
+VERSION = 1
+SWAP_TIMEOUT = 120.0       # seconds a compiled swap may wait for the sound thread (a loaded machine)
+
+
+class CommandError(Exception):
+    """A refused command: `errors` as the page shows them (FILE:LINE: message, or studio: ...)."""
+
+    def __init__(self, errors):
+        self.errors = list(errors)
+        super().__init__(self.errors[0])
+
+
+def read_file(path):
+    with open(path, encoding="utf-8") as f:
+        return f.read()
+
+
+class StudioSession:
+    """One patch file open in the studio. `audio`: card | browser | none."""
+
+    PlanError = adapter.PlanError
+
+    def __init__(self, path, audio="none", choices=None, blocksize=256, fps=60, device=None):
+        self.path = os.fspath(path)
+        self.saved = read_file(self.path)
+        self.text = self.saved
+        self.patch = load(self.path, text=self.text)          # PatchError: the CLI exits 2
+        self.audio, self.choices, self.blocksize, self.fps = audio, dict(choices or {}), int(blocksize), fps
+        self.undo_stack, self.redo_stack = [], []
+        self.probes = {}
+        self.problem = None
+        self.lock = threading.RLock()
+        self.listeners = []
+        self.tap = Tap(fps, audio=(audio == "browser"))
+        self.live = adapter.Live(adapter.open_session(self.patch, self.blocksize, devices=self.choices))
+        if audio == "card":
+            self.runner = CardRunner(self.live, self.tap, self._on_problem, device=device, blocksize=self.blocksize)
+        else:
+            self.runner = ClockRunner(self.live, self.tap, self._on_problem)
+
+    def start(self):
+        self.runner.start()
+        return self
+
+    def close(self):
+        self.runner.stop()
+        self.live.session.close()
+
+    # -- events --------------------------------------------------------------------------------
+    def _emit(self, event):
+        for listener in list(self.listeners):
+            listener(event)
+
+    def _on_problem(self, message):
+        self.problem = message
+        self._emit({"type": "problem", "message": message})
+
+    def describe(self):
+        d = describe(self.patch, self.text)
+        d.update(version=VERSION, fps=self.fps, dirty=self.text != self.saved, undo=len(self.undo_stack),
+                 redo=len(self.redo_stack), problem=self.problem,
+                 audio={"mode": self.audio, "rate": self.patch.rate, "blocksize": self.blocksize,
+                        "channels": self.live.session.channels})
+        return d
+
+    def status(self):
+        return {"type": "status", "t": self.live.t / self.live.rate, "xruns": self.runner.xruns,
+                "load": self.runner.load}
+
+    # -- errors ---------------------------------------------------------------------------------
+    def where(self, block, message):
+        """`FILE:LINE: message` at the block's line when the patch has that block."""
+        inst = self.patch.blocks.get(block) if isinstance(block, str) else None
+        if inst is None:
+            return f"studio: {message}"
+        return f"{self.path}:{inst.line}: {message}"
+
+    # -- edits ----------------------------------------------------------------------------------
+    def load_text(self, text):
+        try:
+            return load(self.path, text=text)
+        except PatchError as exc:
+            raise CommandError([str(p) for p in exc.problems] or [str(exc)]) from None
+
+    def change(self, text, cause, block=None):
+        """Make `text` the patch: loaded, then applied to the sound, then kept (undo history)."""
+        if text == self.text:
+            return
+        patch = self.accept(text, block)
+        self.undo_stack.append(self.text)
+        self.redo_stack.clear()
+        self.commit(text, patch, cause)
+
+    def accept(self, text, block=None):
+        """The patch of `text`, applied to the running sound; CommandError (nothing changed) if
+        the loader or the running program refuses it."""
+        patch = self.load_text(text)
+        try:
+            self.apply(patch)
+        except (adapter.PlanError, ValueError, DeviceError) as exc:
+            raise CommandError([self.where(block, str(exc))]) from None
+        return patch
+
+    def commit(self, text, patch, cause):
+        self.text, self.patch = text, patch
+        self._emit({**self.describe(), "type": "changed", "cmd": cause})
+
+    def apply(self, patch):
+        """To the running sound: live parameters when only they changed, else a swap."""
+        changes = adapter.live_changes(self.patch, patch)
+        if changes is not None and self.runner.problem is None:
+            adapter.apply_live(self.live.session, changes)
+            return
+        self.swap(patch)
+
+    def swap(self, patch, probes=None):
+        """Compile `patch` (the old one keeps playing meanwhile) and swap it in, keeping state."""
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(min(switch, 0.0002))       # let the sound thread in while compiling
+        try:
+            queued = adapter.swap(self.live, patch, probes)
+        finally:
+            sys.setswitchinterval(switch)
+        self.runner.resume()
+        if not self._taken(queued):
+            raise adapter.PlanError("the sound did not take the edit (it has stopped); nothing changed")
+        self.problem = None
+
+    def _taken(self, queued):
+        """Wait for the sound thread's next block boundary, however loaded the machine (the
+        compile is done already): True once the swap plays; False if the sound stopped or
+        after SWAP_TIMEOUT (the swap is withdrawn then)."""
+        deadline = time.monotonic() + SWAP_TIMEOUT
+        while time.monotonic() < deadline:
+            if queued.applied.wait(0.05):
+                return queued.wait(0)
+            if self.runner.problem is not None and self.audio == "card" and self.runner.player is None:
+                break
+        return queued.wait(0)
+
+    def restart(self):
+        adapter.restart(self.live, self.patch, probes=list(self.probes))
+        self.runner.resume()
+        self.problem = None
+
+    def step(self, back):
+        """undo (back) or redo."""
+        source, target = (self.undo_stack, self.redo_stack) if back else (self.redo_stack, self.undo_stack)
+        if not source:
+            raise CommandError([f"studio: nothing to {'undo' if back else 'redo'}"])
+        text, current = source[-1], self.text
+        patch = self.accept(text)
+        source.pop()
+        target.append(current)
+        self.commit(text, patch, "undo" if back else "redo")
+        return {"undo": len(self.undo_stack), "redo": len(self.redo_stack)}
+
+    # -- files ----------------------------------------------------------------------------------
+    def diff(self):
+        return "".join(difflib.unified_diff(self.saved.splitlines(True), self.text.splitlines(True),
+                                            fromfile=self.path, tofile=f"{self.path} (edited)"))
+
+    def save(self, path=None):
+        """Write the text atomically (a temporary file beside it, then renamed)."""
+        target = self.path if path is None else os.path.join(os.path.dirname(self.path), os.fspath(path))
+        if not target.endswith((".yaml", ".yml")):
+            raise CommandError([f"studio: save: {path!r}: a patch is saved as a .yaml (or .yml) file"])
+        folder = os.path.dirname(os.path.abspath(target))
+        data = self.text.encode("utf-8")
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".hapticgraph-studio-", suffix=".yaml", dir=folder)
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    f.write(data)
+                    f.flush()
+                    os.fsync(f.fileno())
+                if os.path.exists(target):
+                    os.chmod(tmp, os.stat(target).st_mode & 0o7777)
+                os.replace(tmp, target)
+            except BaseException:
+                if os.path.exists(tmp):
+                    os.unlink(tmp)
+                raise
+        except OSError as exc:
+            raise CommandError([f"studio: cannot save {target}: {exc.strerror or exc}"]) from None
+        if path is not None:
+            self.path = target
+            self.patch = self.load_text(self.text)
+        self.saved = self.text
+        self._emit({**self.describe(), "type": "changed", "cmd": "save"})
+        return {"path": target, "bytes": len(data)}

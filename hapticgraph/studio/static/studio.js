@@ -1,0 +1,150 @@
+// The studio page: connects to the server that served it, draws the running instrument and wires
+// every panel to the one protocol (docs/studio.md). `window.studio` is the scripting door:
+// send(command) -> Promise of the reply, fps (frames drawn per second with new cell data).
+import { Link } from "./link.js";
+import { Instrument } from "./instrument.js";
+import { flatten } from "./layout.js";
+import { Tools } from "./tools.js";
+import { Params } from "./params.js";
+import { Wiring } from "./wiring.js";
+import { Scopes } from "./scope.js";
+import { Modes } from "./modes.js";
+import { Player } from "./audio.js";
+import { History } from "./history.js";
+import { Mapping } from "./mapping.js";
+import { $, showError, clearError } from "./dom.js";
+
+const token = new URLSearchParams(location.search).get("token") || "";
+const link = new Link(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws?token=${encodeURIComponent(token)}`);
+const view = new Instrument($("#view"));
+
+// the protocol's instrument, with cells also as flat indices (what the view counts in)
+function withFlat(desc) {
+  const byId = {};
+  for (const l of desc.lattices) {
+    l.lockedFlat = l.locked.map((i) => flatten(l.shape, i));
+    l.cutFlat = l.cut.map((i) => flatten(l.shape, i));
+    byId[l.id] = l;
+  }
+  const byName = Object.fromEntries(desc.lattices.map((l) => [l.name, l]));
+  const at = (x) => { if (x.lattice != null && x.index) x.flat = flatten(byId[x.lattice].shape, x.index); return x; };
+  desc.excitations.forEach(at);
+  desc.microphones.forEach(at);
+  for (const j of desc.joins) {
+    j.pa = cellRef(j.a, byName);
+    j.pb = cellRef(j.b, byName);
+  }
+  desc.byId = byId;
+  return desc;
+}
+
+function cellRef(text, byName) {
+  const m = /^\s*([A-Za-z_][\w]*)\s*(?:\[([\d,\s]*)\])?\s*$/.exec(text || "");
+  const l = m && byName[m[1]];
+  if (!l) return null;
+  const idx = m[2] ? m[2].split(",").map((s) => parseInt(s, 10)) : [0];
+  return { lattice: l.id, flat: flatten(l.shape, idx) };
+}
+
+// a command through the link; a refused one shows its error, an accepted one clears it
+async function send(command) {
+  const reply = await link.send(command);
+  if (reply.ok) clearError();
+  else showError(reply.errors || [reply.error]);
+  return reply;
+}
+
+const studio = {
+  send: (command) => link.send(command),
+  fps: 0, received: 0, renders: 0, desc: null, view, link,
+};
+window.studio = studio;
+
+const panels = {};
+
+function apply(desc) {
+  desc = withFlat(desc);
+  studio.desc = desc;
+  view.build(desc.lattices);
+  view.setMarkers(desc.excitations, desc.microphones, desc.joins);
+  $("#title").textContent = `${desc.patch.name} — ${desc.patch.path}`;
+  for (const p of Object.values(panels)) p.update(desc);
+  if (desc.problem) showError([desc.problem]);
+}
+
+function measure() {
+  let drawn = 0, recv = 0, renders = 0, t0 = performance.now();
+  const loop = () => {
+    if (view.draw()) drawn++;
+    renders++;           // animation frames (the picture is redrawn only when something changed)
+    const t = performance.now();
+    if (t - t0 >= 1000) {
+      studio.fps = Math.round((drawn * 1000) / (t - t0) * 10) / 10;
+      studio.received = Math.round(((link.received - recv) * 1000) / (t - t0) * 10) / 10;
+      studio.renders = Math.round((renders * 1000) / (t - t0) * 10) / 10;
+      $("#fps").textContent = `${studio.fps.toFixed(0)} fps`;
+      drawn = 0; renders = 0; recv = link.received; t0 = t;
+    }
+    requestAnimationFrame(loop);
+  };
+  requestAnimationFrame(loop);
+}
+
+function tabs() {
+  for (const b of document.querySelectorAll("#tabs button")) {
+    b.onclick = () => {
+      if (b.dataset.tab === "scope" || b.dataset.tab === "modes") panels.scopes.wake();
+      for (const o of document.querySelectorAll("#tabs button")) o.classList.toggle("on", o === b);
+      for (const t of document.querySelectorAll(".tab")) t.hidden = t.id !== `tab-${b.dataset.tab}`;
+    };
+  }
+}
+
+// Ask the server for no more cell frames than the page draws: frames it would drop cost the
+// server and the page work beside the sound (a software-rendered page on a small machine).
+// A page that keeps up is offered more again, up to the server's rate; a hidden page gets none.
+function pace(drawn) {
+  const top = studio.desc.fps;
+  let want = document.hidden ? 0 : pace.offered;
+  if (!document.hidden && studio.received > 0) {
+    if (drawn < 0.8 * studio.received) want = Math.max(10, Math.round(1.25 * drawn));
+    else if (drawn >= 0.9 * studio.received) want = Math.min(top, Math.round(1.5 * want) || top);
+  }
+  if (want === pace.asked) return;
+  pace.asked = want;
+  pace.offered = want || pace.offered;
+  link.send({ cmd: "frames", fps: want }).catch(() => {});
+}
+
+async function main() {
+  tabs();
+  link.on("cells", (f) => { if (!panels.modes.showing(f.lattice)) view.take(f.lattice, f.values); });
+  link.on("event", (m) => {
+    if (m.type === "changed") apply(m);
+    else if (m.type === "problem") showError([m.message]);
+    else if (m.type === "status") (studio.status = m), $("#status").textContent = `t ${m.t.toFixed(1)} s · xruns ${m.xruns} · load ${(100 * m.load).toFixed(0)} %`;
+  });
+  link.on("close", () => showError(["studio: the connection to the studio closed"]));
+  let hello;
+  try { hello = await link.open(); } catch (e) { showError([e.message]); return; }
+  const ctx = { send, view, link, studio, panels };
+  panels.tools = new Tools(ctx);
+  panels.params = new Params(ctx);
+  panels.wiring = new Wiring(ctx);
+  panels.scopes = new Scopes(ctx);
+  panels.modes = new Modes(ctx);
+  panels.history = new History(ctx);
+  panels.mapping = new Mapping(ctx);
+  panels.player = new Player(ctx);
+  studio.audio = panels.player.stats;
+  studio.tools = panels.tools;
+  apply(hello);
+  measure();
+  // a hidden page asks for no cell frames (the server then sends none), and for them again when seen
+  document.addEventListener("visibilitychange", () => pace(studio.fps));
+  setInterval(() => pace(studio.fps), 2000);
+  pace.offered = hello.fps;
+  document.body.dataset.ready = "1";
+}
+
+main();
