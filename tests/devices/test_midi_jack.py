@@ -30,14 +30,22 @@ connect:
 """
 
 
-def _wait_for_server(deadline):
+def _client(name, deadline):
+    """A JACK MIDI output client, retried until `deadline` (a loaded server may refuse one
+    moment and accept the next); None if it never did."""
     while time.monotonic() < deadline:
         try:
-            rtmidi.MidiOut(rtmidi.API_UNIX_JACK, name="probe").delete()
-            return True
+            return rtmidi.MidiOut(rtmidi.API_UNIX_JACK, name=name)
         except Exception:  # noqa: BLE001 - not up yet
             time.sleep(0.1)
-    return False
+    return None
+
+
+def _wait_for_server(deadline):
+    probe = _client("probe", deadline)
+    if probe is not None:
+        probe.delete()
+    return probe is not None
 
 
 @pytest.fixture
@@ -58,7 +66,8 @@ def jack(monkeypatch):
 
 @pytest.fixture
 def keyboard(jack):
-    out = rtmidi.MidiOut(rtmidi.API_UNIX_JACK, name="kbd")
+    out = _client("kbd", time.monotonic() + 20)
+    assert out is not None, "no JACK MIDI client could be made in 20 s"
     out.open_virtual_port("hg-keys")
     yield out
     out.close_port()
