@@ -30,8 +30,10 @@ def fresh_env(tmp_path_factory):
     # dependencies (numpy, numba, ...) come from this interpreter's site-packages as a plain path
     # entry: its .pth hooks (e.g. an editable install of hapticgraph) are NOT run in the new env
     site = _run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"]).stdout.strip()
+    # (and those of a venv made with --system-site-packages: its base's site-packages)
+    outer = [sysconfig.get_paths()["purelib"]] + [p for p in sys.path if p.endswith("site-packages")]
     with open(os.path.join(site, "outer_deps.pth"), "w") as f:
-        f.write(sysconfig.get_paths()["purelib"] + "\n")
+        f.write("\n".join(dict.fromkeys(outer)) + "\n")
     _run([str(py), "-m", "pip", "install", "-q", "--no-deps", "--no-index", *map(str, wheels.glob("*.whl"))])
     return py, base
 

@@ -33,6 +33,11 @@ class Live:
         self.session = session
         self.lock = threading.Lock()
 
+    def __getattr__(self, name):
+        # what else the Player reads of a Session (channels, probes, drivers, swaps, pending,
+        # apply, inputs, program): the one playing now (a restart replaces it)
+        return getattr(self.session, name)
+
     @property
     def rate(self):
         return self.session.rate
