@@ -320,12 +320,19 @@ def helper(fn):
     return fn
 
 
-def register_helpers():
+def pending_helpers():
+    """The @helper functions defined since the last register_helpers (a new tuple)."""
+    return tuple(_HELPERS)
+
+
+def register_helpers(cached=None):
     """Register every @helper defined so far with numba (register_jitable); the compiler calls this
-    before it jits anything."""
+    before it jits anything. `cached(fn)`: True to have numba cache fn's machine code (where its
+    cache locators say: the compiler's graph/helper_cache.py claims those it keeps)."""
     from numba.extending import register_jitable
     while _HELPERS:
-        register_jitable(_HELPERS.pop())
+        fn = _HELPERS.pop()
+        register_jitable(cache=bool(cached and cached(fn)))(fn)
 
 
 def block_equation(cls):

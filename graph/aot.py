@@ -13,7 +13,8 @@ Policy (`HAPTICGRAPH_AOT`, unset or `1`: on; `0`: numba's JIT cache, as before):
   are there, on POSIX systems, without NUMBA_CPU_NAME / NUMBA_CPU_FEATURES (the module is built
   for this CPU). Anything missing or failing: numba's JIT cache, as before, never an error;
 - numba's C runtime (helpers, reference counting), the same for every kernel, is compiled once
-  per cache folder into `aot_runtime_<key>/` (its own manifest, verified before each link);
+  per installation into `aot_runtime_<key>/` of the shared folder (graph/kcache.py's shared_dir,
+  whatever kernel cache folder is used; its own manifest, verified before each link);
 - a call whose arguments are not exactly the built types (int64 scalars, C-contiguous arrays of
   the same dtype, dimensions, writability and alignment: the extension module checks only the
   item size) goes to a numba dispatcher compiled for it in memory.
@@ -29,9 +30,9 @@ import tempfile
 
 import numpy as np
 
-from ..blocks.vocabulary import register_helpers
+from .helper_cache import register as register_helpers
 from .jit import warm_arguments
-from .kcache import KERNEL_FILE, CacheEntry
+from .kcache import KERNEL_FILE, CacheEntry, usable_shared_dir
 from .numba_start import start as start_numba
 
 NAME = "hapticgraph_aot"
@@ -301,11 +302,12 @@ def _objects(folder):
 
 def _runtime(root, say):
     """The object files of numba's C runtime for extension modules named NAME: compiled once per
-    cache folder into aot_runtime_<key>/, verified against its manifest before every link."""
+    installation into aot_runtime_<key>/ of the shared folder (else of the kernel cache folder
+    `root`), verified against its manifest before every link."""
     import shutil
-    entry = CacheEntry(root, _runtime_key(), prefix="aot_runtime")
+    entry = CacheEntry(usable_shared_dir(root), _runtime_key(), prefix="aot_runtime")
     if not entry.verify():
-        say("compiling numba's C runtime for native kernels (once per cache folder)…")
+        say("compiling numba's C runtime for native kernels (once per installation)…")
         cc = _cc()
         with entry.fresh() as tmp:
             with _tool("the C compiler"):

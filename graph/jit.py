@@ -15,7 +15,7 @@ import os
 import sys
 import types
 
-from ..blocks.vocabulary import register_helpers
+from .helper_cache import register as register_helpers
 from .kcache import KERNEL_FILE
 from .numba_start import start as start_numba
 

@@ -7,7 +7,10 @@ written after a successful compile. An entry is used only when `kernel.py` is by
 source just generated and every file matches the manifest (no file missing, none extra, no link);
 otherwise it is deleted and rebuilt. An entry is filled in a fresh hidden folder and renamed into
 place when complete, so a half-written one is never seen. The cache folder itself must be ours,
-writable and not world-writable; else kernels are compiled in memory (one warning).
+writable and not world-writable; else kernels are compiled in memory (one warning). What every
+kernel needs (numba's C runtime: graph/aot.py; the built-in helpers' machine code:
+graph/helper_cache.py) is built once per installation in the shared folder (shared_dir), checked
+the same way, with entries of the same kind.
 """
 import contextlib
 import json
@@ -24,18 +27,28 @@ _warned = []            # the one "cache not usable" warning, given at most once
 _POSIX = os.name == "posix"      # owners and permission bits mean something
 
 
+def user_cache_dir():
+    """The user cache directory of this platform's hapticgraph: the kernel cache folder unless
+    HAPTICGRAPH_CACHE names another, and the shared folder unless HAPTICGRAPH_SHARED_CACHE does."""
+    if sys.platform == "win32":
+        base = os.environ.get("LOCALAPPDATA") or os.path.expanduser("~")
+    elif sys.platform == "darwin":
+        base = os.path.expanduser("~/Library/Caches")
+    else:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+    return os.path.join(base, "hapticgraph")
+
+
 def cache_dir():
     """HAPTICGRAPH_CACHE, else the user cache directory of this platform."""
-    path = os.environ.get("HAPTICGRAPH_CACHE")
-    if not path:
-        if sys.platform == "win32":
-            base = os.environ.get("LOCALAPPDATA") or os.path.expanduser("~")
-        elif sys.platform == "darwin":
-            base = os.path.expanduser("~/Library/Caches")
-        else:
-            base = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
-        path = os.path.join(base, "hapticgraph")
-    return path
+    return os.environ.get("HAPTICGRAPH_CACHE") or user_cache_dir()
+
+
+def shared_dir():
+    """HAPTICGRAPH_SHARED_CACHE, else the user cache directory of this platform: where what every
+    kernel of this installation needs from numba (its C runtime, the built-in helpers' machine
+    code) is built once, whatever kernel cache folder HAPTICGRAPH_CACHE names."""
+    return os.environ.get("HAPTICGRAPH_SHARED_CACHE") or user_cache_dir()
 
 
 def warn_once(text):
@@ -45,10 +58,9 @@ def warn_once(text):
         print(f"hapticgraph: warning: {text}", file=sys.stderr, flush=True)
 
 
-def usable_cache_dir():
-    """The cache folder if it can hold kernels (a folder we own, writable, not world-writable);
-    else None after one warning: kernels are then compiled in memory."""
-    root = cache_dir()
+def _refusal(root):
+    """None if the folder `root` can hold cache entries (made if missing; ours, writable, not
+    world-writable), else why not."""
     try:
         os.makedirs(root, mode=0o700, exist_ok=True)
         st = os.stat(root)
@@ -60,10 +72,35 @@ def usable_cache_dir():
             raise PermissionError("writable by every user")
         tempfile.TemporaryFile(dir=root).close()
     except OSError as exc:
-        reason = exc.strerror or str(exc) or type(exc).__name__
+        return exc.strerror or str(exc) or type(exc).__name__
+    return None
+
+
+def usable_cache_dir():
+    """The cache folder if it can hold kernels (a folder we own, writable, not world-writable);
+    else None after one warning: kernels are then compiled in memory."""
+    root = cache_dir()
+    reason = _refusal(root)
+    if reason is not None:
         warn_once(f"kernel cache {root!r} is not usable ({reason}); compiling in memory "
                   "(set HAPTICGRAPH_CACHE to a folder of yours)")
         return None
+    return root
+
+
+def usable_shared_dir(fallback):
+    """The shared folder (shared_dir) if it can hold cache entries, as the kernel cache folder
+    must; else, after one warning, `fallback` (the kernel cache folder, or None: built there
+    instead, or not kept)."""
+    root = shared_dir()
+    if fallback is not None and os.path.realpath(root) == os.path.realpath(fallback):
+        return fallback
+    reason = _refusal(root)
+    if reason is not None:
+        warn_once(f"shared cache {root!r} is not usable ({reason}); what numba needs for every kernel is built "
+                  f"{'in ' + repr(fallback) if fallback else 'with each kernel'} (set HAPTICGRAPH_SHARED_CACHE "
+                  "to a folder of yours)")
+        return fallback
     return root
 
 

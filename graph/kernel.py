@@ -14,6 +14,7 @@ import numpy as np
 from . import aot
 from .aot import AotBackend
 from .cachekey import kernel_key
+from .helper_cache import settle as settle_helpers
 from .codegen import generate
 from .identifiers import note
 from .jit import JitBackend, KernelCode, jit
@@ -61,7 +62,10 @@ def compile_kernel(key, source, label, warm):
             warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
     else:
         _say(f"compiling {label}…")
-    return JIT.memory(code, warm), None, JIT
+    try:
+        return JIT.memory(code, warm), None, JIT
+    finally:
+        settle_helpers()
 
 
 def _into_entry(entry, code, warm):
@@ -79,6 +83,8 @@ def _into_entry(entry, code, warm):
     except BaseException:   # numba cannot compile it, or an interrupt: nothing left behind
         code.forget()
         raise
+    finally:
+        settle_helpers()    # what numba cached of the helpers, listed
     return fn, entry.kernel_file, backend
 
 

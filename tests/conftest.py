@@ -1,4 +1,5 @@
-"""Shared fixtures: one kernel cache per test session (never the user's), patch writers."""
+"""Shared fixtures: one kernel cache and one shared cache per test session (never the user's),
+patch writers."""
 import os
 import textwrap
 
@@ -11,9 +12,11 @@ from project_env import EDITABLE_STRING, PATCHES, ROOT, single_block_patch  # no
 def _kernel_cache(tmp_path_factory):
     if "HAPTICGRAPH_CACHE" not in os.environ:
         os.environ["HAPTICGRAPH_CACHE"] = str(tmp_path_factory.mktemp("kernels"))
+    if "HAPTICGRAPH_SHARED_CACHE" not in os.environ:      # numba's runtime, the helpers' machine code
+        os.environ["HAPTICGRAPH_SHARED_CACHE"] = str(tmp_path_factory.mktemp("shared"))
     # kernels compiled by numba's JIT, as before: building extension modules (graph/aot.py) costs
-    # a link per kernel and numba's C runtime once per cache folder, and many tests start with an
-    # empty one; tests/graph/test_aot.py and tests/hostile/test_kernel_native.py turn it on
+    # a link per kernel (numba's C runtime once, in the shared cache), and many tests start with an
+    # empty kernel cache; tests/graph/test_aot.py and tests/hostile/test_kernel_native.py turn it on
     os.environ.setdefault("HAPTICGRAPH_AOT", "0")
     yield
 

@@ -1,8 +1,6 @@
 """Kernels built ahead of time (graph/aot.py): the same numbers as numba's JIT, sample for sample;
 a warm start imports neither numba nor llvmlite; arguments of other types go to numba."""
 import os
-import pathlib
-import shutil
 import subprocess
 import sys
 
@@ -96,10 +94,8 @@ def _probe(patch, out, env):
     return lines["STATUS"], [m for m in lines["HEAVY"].split(",") if m]
 
 
-def test_a_warm_run_imports_no_numba(tmp_path, native_cache):
+def test_a_warm_run_imports_no_numba(tmp_path):
     env = {**os.environ, "HAPTICGRAPH_CACHE": str(tmp_path / "cache"), "HAPTICGRAPH_AOT": "1"}
-    for runtime in pathlib.Path(native_cache).glob("aot_runtime_*"):    # compiled once is enough
-        shutil.copytree(runtime, tmp_path / "cache" / runtime.name)
     patch = ROOT / "patches" / "fig8_pluck_damp.yaml"
     cold = _probe(patch, tmp_path / "cold.wav", env)
     assert cold[0] == "0" and "numba" in cold[1]

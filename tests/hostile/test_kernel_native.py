@@ -1,7 +1,8 @@
 """The extension module a kernel is built into ahead of time (graph/aot.py) is verified like every
 other file of its cache entry: random bytes in it, an edited aot.json or a missing module and the
-entry is rebuilt, never loaded; a planted module is refused. numba's C runtime objects are
-verified before every link. Without a C compiler the kernel is numba's, and the run goes on."""
+entry is rebuilt, never loaded; a planted module is refused. numba's C runtime objects (built once
+in the shared cache) are verified before every link. Without a C compiler the kernel is numba's,
+and the run goes on."""
 import json
 import random
 import shutil
@@ -14,8 +15,9 @@ TIMEOUT = 300           # a first build also compiles numba's C runtime
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    """A cache folder holding numba's C runtime and the patch's kernel built ahead of time (cold,
-    then warm): each test attacks a copy, so the runtime is compiled once for the module."""
+    """A kernel cache folder holding the patch's kernel built ahead of time (cold, then warm) and a
+    shared one holding numba's C runtime: each test attacks a copy, so the runtime is compiled once
+    for the module."""
     folder = tmp_path_factory.mktemp("built")
     env = _setup(folder)
     assert "compiling kernel for 4 blocks" in _run(folder, env)
@@ -23,12 +25,14 @@ def built(tmp_path_factory):
     entry = _entry(folder)
     assert not (entry / "__pycache__").exists()
     _module(entry)
-    return folder / "cache"
+    assert not list((folder / "cache").glob("aot_runtime_*")) and list((folder / "shared").glob("aot_runtime_*"))
+    return folder
 
 
 def _setup(tmp_path, **env):
     (tmp_path / "p.yaml").write_text(STRING)
-    return {"HAPTICGRAPH_CACHE": str(tmp_path / "cache"), "HAPTICGRAPH_AOT": "1", **env}
+    return {"HAPTICGRAPH_CACHE": str(tmp_path / "cache"), "HAPTICGRAPH_SHARED_CACHE": str(tmp_path / "shared"),
+            "HAPTICGRAPH_AOT": "1", **env}
 
 
 def _run(tmp_path, env):
@@ -52,7 +56,8 @@ def _module(entry):
 def _native_entry(tmp_path, built):
     """A copy of the built cache in tmp_path: (env, its entry, the entry's extension module)."""
     env = _setup(tmp_path)
-    shutil.copytree(built, tmp_path / "cache")
+    for folder in ("cache", "shared"):
+        shutil.copytree(built / folder, tmp_path / folder)
     assert "compiling" not in _run(tmp_path, env)
     entry = _entry(tmp_path)
     return env, entry, _module(entry)
@@ -100,7 +105,7 @@ def test_a_module_planted_beside_a_numba_entry_is_refused(tmp_path, built):
 
 def test_a_tampered_runtime_object_is_rebuilt_not_linked(tmp_path, built):
     env, _, _ = _native_entry(tmp_path, built)
-    runtime = next((tmp_path / "cache").glob("aot_runtime_*"))
+    runtime = next((tmp_path / "shared").glob("aot_runtime_*"))
     obj = sorted(runtime.glob("*.o"))[0]
     obj.write_bytes(obj.read_bytes()[:1000])
     shutil.rmtree(_entry(tmp_path))
@@ -116,6 +121,7 @@ def test_no_c_compiler_means_numba_and_the_run_goes_on(tmp_path):
     assert "compiling kernel for 4 blocks" in err and "numba loads them" in err and "warning" not in err
     entry = _entry(tmp_path)
     assert (entry / "__pycache__").is_dir() and not list(entry.glob("hapticgraph_aot*"))
-    assert not list((tmp_path / "cache").glob("aot_runtime_*")) and not list((tmp_path / "cache").glob(".*"))
+    for folder in ("cache", "shared"):
+        assert not list((tmp_path / folder).glob("aot_runtime_*")) and not list((tmp_path / folder).glob(".*"))
     assert "compiling" not in _run(tmp_path, env)
     assert (tmp_path / "o.wav").stat().st_size > 1000
