@@ -5,8 +5,6 @@ import math
 import os
 import sys
 
-import jsonschema
-
 from ..graph.entries import driver_of
 from ..graph.errors import Collector
 from ..graph.source import parse_value
@@ -69,6 +67,7 @@ def parse_choice(text):
                 raise DeviceError(f"{where}: {key}={raw}: {problems.problems[0].message}")
         if isinstance(value, float) and not math.isfinite(value):
             raise DeviceError(f"{where}: {key}={raw}: expected a finite number")
+        import jsonschema      # heavy: only when the command line sets a device's setting
         try:
             jsonschema.validate(value, schema)
         except jsonschema.ValidationError as exc:

@@ -31,7 +31,8 @@ def _cpu():
     return f"{binding.get_host_cpu_name()} {binding.get_host_cpu_features().flatten()}"
 
 
-def _version(dist):
+def dist_version(dist):
+    """The installed version of the distribution `dist`, or '?'."""
     try:
         return metadata.version(dist)
     except metadata.PackageNotFoundError:
@@ -43,7 +44,7 @@ def host_id():
     start loads an extension module and never imports it: graph/aot.py)."""
     if not _host:
         import numpy
-        _host.append("\0".join([_version("numba"), _version("llvmlite"), numpy.__version__, sys.version,
+        _host.append("\0".join([dist_version("numba"), dist_version("llvmlite"), numpy.__version__, sys.version,
                                 sys.implementation.cache_tag or "", platform.machine(), _cpu(),
                                 os.environ.get("NUMBA_CPU_NAME", ""), os.environ.get("NUMBA_CPU_FEATURES", "")]))
     return _host[0]

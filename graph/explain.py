@@ -2,25 +2,24 @@
 schema takes as integers ints) and told as sentences naming the block, its parameter (with its
 unit) or the key at fault (`describe`): what the loader reports at each error's line
 (graph/validate.py, graph/voices.py)."""
-import jsonschema
-from jsonschema import validators
-
 from ..blocks.numbers import is_whole
 from .model import connection_problem
 
-_TYPE = jsonschema.Draft202012Validator.VALIDATORS["type"]
 
-
-def whole_errors(schema, doc):
+def whole_errors(schema, doc, made=None):
     """The errors of `doc` against `schema` (JSON Schema 2020-12), as they are found. Every float the schema
     accepts as an integer (2.0: JSON Schema counts it as one) becomes an int in `doc`, in place,
     so an index, a count or a length reaches the blocks as the integer it means; a float with a
     fraction stays an error of the schema ("2.5 is not an integer", at its line). Floats are made
-ints when the generator ends or is closed (a caller stopping early closes it: `closing`)."""
+ints when the generator ends or is closed (a caller stopping early closes it: `closing`); the
+path of each is appended to `made`, when given."""
+    import jsonschema              # heavy (attrs, referencing, rpds): only when a document is checked
+    from jsonschema import validators
+    base = jsonschema.Draft202012Validator.VALIDATORS["type"]
     accepted = set()
 
     def type_(validator, types, instance, schema):
-        errors = list(_TYPE(validator, types, instance, schema))
+        errors = list(base(validator, types, instance, schema))
         named = [types] if isinstance(types, str) else list(types)
         if not errors and isinstance(instance, float) and "integer" in named and "number" not in named:
             accepted.add(id(instance))       # the document holds it, so the id stays its own
@@ -30,17 +29,39 @@ ints when the generator ends or is closed (a caller stopping early closes it: `c
         yield from validators.extend(jsonschema.Draft202012Validator, {"type": type_})(schema).iter_errors(doc)
     finally:
         if accepted:
-            _make_whole(doc, accepted)
+            _make_whole(doc, accepted, (), [] if made is None else made)
 
 
-def _make_whole(node, accepted):
-    """Replace, in the lists and mappings of `node`, each float whose id is in `accepted` by its int."""
+def _make_whole(node, accepted, path, made):
+    """Replace, in the lists and mappings of `node`, each float whose id is in `accepted` by its
+    int; the path of each (from `path`) appended to `made`."""
     items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
     for key, value in list(items):
         if isinstance(value, float) and id(value) in accepted and is_whole(value):
             node[key] = int(value)
+            made.append([*path, key])
         elif isinstance(value, (dict, list)):
-            _make_whole(value, accepted)
+            _make_whole(value, accepted, (*path, key), made)
+
+
+def make_whole_at(doc, paths):
+    """The floats at `paths` (whole_errors' `made`) made ints, as whole_errors made them; False
+    (nothing changed) unless every path leads to a whole float."""
+    found = []
+    for path in paths:
+        node = doc
+        try:
+            for key in path[:-1]:
+                node = node[key]
+            value = node[path[-1]]
+        except (KeyError, IndexError, TypeError):
+            return False
+        if not (isinstance(value, float) and is_whole(value)):
+            return False
+        found.append((node, path[-1], value))
+    for node, key, value in found:
+        node[key] = int(value)
+    return True
 
 
 def describe(err, path, doc, registry):

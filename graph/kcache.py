@@ -58,7 +58,7 @@ def warn_once(text):
         print(f"hapticgraph: warning: {text}", file=sys.stderr, flush=True)
 
 
-def _refusal(root):
+def refusal(root):
     """None if the folder `root` can hold cache entries (made if missing; ours, writable, not
     world-writable), else why not."""
     try:
@@ -80,7 +80,7 @@ def usable_cache_dir():
     """The cache folder if it can hold kernels (a folder we own, writable, not world-writable);
     else None after one warning: kernels are then compiled in memory."""
     root = cache_dir()
-    reason = _refusal(root)
+    reason = refusal(root)
     if reason is not None:
         warn_once(f"kernel cache {root!r} is not usable ({reason}); compiling in memory "
                   "(set HAPTICGRAPH_CACHE to a folder of yours)")
@@ -95,7 +95,7 @@ def usable_shared_dir(fallback):
     root = shared_dir()
     if fallback is not None and os.path.realpath(root) == os.path.realpath(fallback):
         return fallback
-    reason = _refusal(root)
+    reason = refusal(root)
     if reason is not None:
         warn_once(f"shared cache {root!r} is not usable ({reason}); what numba needs for every kernel is built "
                   f"{'in ' + repr(fallback) if fallback else 'with each kernel'} (set HAPTICGRAPH_SHARED_CACHE "

@@ -6,8 +6,6 @@ reports all of them at once.
 import os
 import re
 
-import jsonschema
-
 from .entries import check_bound_blocks, check_drivers, device_axes, driver_of  # noqa: F401  (devices/ reads these here)
 from .errors import Collector, PatchError, name_list, suggest
 from .family import check_families, kernel_cost
@@ -41,14 +39,14 @@ def load(path, overrides=(), registry=None, drivers=None, text=None):
     doc = expand_voices(doc, registry, problems)     # a `voices:` template becomes blocks per voice
     _apply_overrides(doc, overrides, registry, problems)
     _stop_if_full(problems)
-    check_schema(doc, registry, problems)
+    checked = _checked_specs(doc) if check_schema(doc, registry, problems) else {}
     _stop_if_full(problems)
     check_drivers(doc.get("devices"), registry.drivers, os.path.dirname(os.path.abspath(path)), problems)
     doc = _prepare(doc, registry, problems)     # e.g. `map:` entries become blocks and connections
     raw_rate = doc.get("rate", DEFAULT_RATE)
     valid_rate = isinstance(raw_rate, (int, float)) and not isinstance(raw_rate, bool) and 100 <= raw_rate <= 1e6
     rate = float(raw_rate) if valid_rate else DEFAULT_RATE   # a bad rate is reported by the schema
-    blocks = _instances(doc, registry, rate, problems)
+    blocks = _instances(doc, registry, rate, problems, checked)
     _stop_if_full(problems)
     connections = connections_of(doc, blocks, problems)
     _stop_if_full(problems)
@@ -190,7 +188,15 @@ def _bare_set(text, block, blocks, registry):
     return 1, f"--set {text!r}: expected BLOCK.PARAM=VALUE"
 
 
-def _instances(doc, registry, rate, problems):
+def _checked_specs(doc):
+    """id -> (spec, its values) of each block spec of a document the schema found clean: a value
+    still there (the same object) needs no second check (_valid)."""
+    blocks = doc.get("blocks")
+    items = blocks.values() if isinstance(blocks, dict) else ()
+    return {id(spec): (spec, dict(spec)) for spec in items if isinstance(spec, dict)}
+
+
+def _instances(doc, registry, rate, problems, checked):
     blocks = doc.get("blocks")
     out = {}
     if not isinstance(blocks, LDict):
@@ -203,10 +209,11 @@ def _instances(doc, registry, rate, problems):
         cls = registry.types[spec["type"]]
         values = cls.default_params()
         ok = True
+        seen = checked.get(id(spec), (None, {}))[1]
         for key, param in cls.params.items():
             if key in spec:
                 value = spec[key]
-                if not _valid(param, value):
+                if not (seen.get(key, _valid) is value or _valid(param, value)):
                     ok = False
                     continue
                 values[key] = param.value_of(value)
@@ -236,6 +243,7 @@ def _instances(doc, registry, rate, problems):
 
 
 def _valid(param, value):
+    import jsonschema          # heavy: only for a value the whole document's check did not cover
     try:
         jsonschema.validate(value, param.schema())
         return True
