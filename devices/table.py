@@ -29,8 +29,24 @@ class Entry:
         self.kind, self.origin = kind, origin
 
 
+@functools.cache
+def _installed():
+    """Every installed entry point, in one scan: importlib.metadata reads every distribution's
+    entry points for each call, so both groups are read at once."""
+    return importlib.metadata.entry_points()
+
+
+_names = {}             # id(distribution) -> (distribution, its name): its metadata parsed once
+
+
 def _ours(ep):
-    return ep.dist is not None and ep.dist.name == "hapticgraph"
+    dist = ep.dist
+    if dist is None:
+        return False
+    known = _names.get(id(dist))
+    if known is None or known[0] is not dist:
+        known = _names[id(dist)] = (dist, dist.name)
+    return known[1] == "hapticgraph"
 
 
 def _source_entry_points(group):
@@ -51,7 +67,7 @@ def _source_entry_points(group):
 
 def entry_points(group):
     """[(entry point, origin)] of `group`, hapticgraph's own first."""
-    found = list(importlib.metadata.entry_points(group=group))
+    found = list(_installed().select(group=group))
     ours = sorted([ep for ep in found if _ours(ep)] or _source_entry_points(group), key=lambda ep: ep.name)
     others = sorted((ep for ep in found if not _ours(ep)), key=lambda ep: ep.name)
     return ([(ep, f"hapticgraph ({ep.value})") for ep in ours]

@@ -16,17 +16,20 @@ def fresh(monkeypatch):
     """The table read again, with the entry points `fresh(extra)` adds to the installed ones."""
     real = importlib.metadata.entry_points
 
+    def clear():
+        for cached in (table._installed, table._drivers, table._inputs):
+            cached.cache_clear()
+
     def use(extra=(), installed=True):
-        def entry_points(group):
-            found = list(real(group=group)) if installed else []
-            return found + [ep for ep in extra if ep.group == group]
+        def entry_points():
+            groups = (table.DRIVER_GROUP, table.INPUT_GROUP)
+            found = [ep for g in groups for ep in real().select(group=g)] if installed else []
+            return importlib.metadata.EntryPoints(found + list(extra))
         monkeypatch.setattr(table.importlib.metadata, "entry_points", entry_points)
-        table._drivers.cache_clear()
-        table._inputs.cache_clear()
+        clear()
     yield use
     monkeypatch.undo()
-    table._drivers.cache_clear()
-    table._inputs.cache_clear()
+    clear()
 
 
 def test_the_built_in_drivers_come_from_the_entry_points():
