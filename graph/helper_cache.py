@@ -14,13 +14,14 @@ numba wrote is listed in the manifest after each compile (`settle`) and at exit.
 Only the helpers defined in hapticgraph's own packages are cached (a plugin's are compiled with
 each kernel, as before); numba finds the folder through a cache locator of ours, first in numba's
 list, that claims those functions alone. Without a usable folder, or when NUMBA_CACHE_LOCATOR_CLASSES
-replaces numba's list, nothing is cached: helpers compile with each kernel.
+replaces numba's list, nothing is cached: helpers compile with each kernel, as before.
 """
 import atexit
 import hashlib
 import importlib.util
 import json
 import os
+import threading
 
 from ..blocks.vocabulary import pending_helpers, register_helpers
 from .cachekey import file_digest, host_id
@@ -30,6 +31,7 @@ PREFIX = "numba_helpers"
 PACKAGES = ("blocks", "graph", "devices")      # hapticgraph's packages that define helpers
 _claimed = {}           # helper function -> the folder numba caches it in
 _store = []             # (CacheEntry, package folders) opened in this process, or None: at most one
+_lock = threading.Lock()
 
 
 def _package_dirs():
@@ -60,26 +62,27 @@ def _key(dirs):
 def _open():
     """(the verified entry of this installation's helpers, the package folders), opened once a
     process; None when nothing can be cached."""
-    if not _store:
-        _store.append(_verified())
+    with _lock:
+        if not _store:
+            _store.append(_verified())
     return _store[0]
 
 
 def _verified():
-    from numba.core import caching, config
+    from numba.core import caching
     root = usable_shared_dir(usable_cache_dir())
-    if root is None or config.CACHE_LOCATOR_CLASSES:
+    if root is None or os.environ.get("NUMBA_CACHE_LOCATOR_CLASSES"):     # numba's list replaced
         return None
     dirs = _package_dirs()
-    entry = CacheEntry(root, _key(dirs), prefix=PREFIX)
     try:
+        entry = CacheEntry(root, _key(dirs), prefix=PREFIX)
         if not entry.verify():
             entry.remove()
             with entry.fresh() as folder:
                 entry.commit(folder)
     except OSError:
         return None
-    caching.CacheImpl._locator_classes.insert(0, _locator(caching))
+    caching.CompileResultCacheImpl._locator_classes.insert(0, _locator(caching))
     atexit.register(settle)
     return entry, dirs
 
