@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Is each stencil's interior loop vectorised? Asks the compiler (issue 25, item 3).
 
-    python benchmarks/vectorised.py [PATCH ...] [--json] [--no-remarks] [--dump DIR]
+    python benchmarks/vectorised.py [PATCH ...] [--json] [--no-remarks] [--dump DIR] [--aot]
 
 Compiles each patch's kernel as a run does (Program + CompiledKernel, numba's JIT in a fresh
 temporary kernel cache, so numba compiles it now) and reads what LLVM made of it:
@@ -15,6 +15,9 @@ temporary kernel cache, so numba compiles it now) and reads what LLVM made of it
 3. LLVM's loop-vectorize remarks (llvmlite's `set_option('', '-pass-remarks=loop-vectorize')` and
    the -missed / -analysis ones, read from file descriptor 2 during the compile): how many loops it
    vectorised at which width and interleave, and every reason it gave for a loop it did not.
+4. with --aot, the kernel built ahead of time (graph/aot.py, numba.pycc: what a warm `hapticgraph
+   run` loads), disassembled with objdump: the functions holding the interior loop must have
+   packed instructions there too.
 A lattice of D dimensions steps its cells through a (2D+1)-point stencil: its interior loop is
 vectorised when some innermost loop of the kernel's call tree loads at least 2D+1 packed vectors
 of doubles and adds and multiplies packed vectors. The scalar remainder of that loop and the loops
@@ -30,6 +33,8 @@ import json
 import os
 import pathlib
 import re
+import shutil
+import subprocess
 import sys
 import tempfile
 
@@ -235,11 +240,12 @@ def captured_fd2(out):
 
 
 @contextlib.contextmanager
-def fresh_kernel_cache():
-    """numba's JIT (not the ahead-of-time module) into an empty kernel cache, so it compiles now."""
+def fresh_kernel_cache(aot=False):
+    """An empty kernel cache, so the kernel is compiled now: by numba's JIT, or `aot` into an
+    extension module (graph/aot.py), as a run of the patch would."""
     saved = {k: os.environ.get(k) for k in ("HAPTICGRAPH_CACHE", "HAPTICGRAPH_AOT")}
     with tempfile.TemporaryDirectory(prefix="hg-vectorised-") as folder:
-        os.environ.update(HAPTICGRAPH_CACHE=folder, HAPTICGRAPH_AOT="0")
+        os.environ.update(HAPTICGRAPH_CACHE=folder, HAPTICGRAPH_AOT="1" if aot else "0")
         try:
             yield
         finally:
@@ -269,6 +275,29 @@ def compile_patch(path):
     return patch, fn.inspect_llvm(sig), fn.inspect_asm(sig), fn.overloads[sig].fndesc.mangled_name, err[0]
 
 
+def aot_packed(path):
+    """asm_packed() of the kernel built ahead of time (graph/aot.py: the machine code a warm
+    `hapticgraph run` loads), read with objdump -d; None without objdump or an extension module."""
+    from hapticgraph.graph.kernel import CompiledKernel
+    from hapticgraph.graph.patch import load
+    from hapticgraph.graph.program import Program
+    objdump = shutil.which("objdump")
+    if objdump is None:
+        return None
+    with fresh_kernel_cache(aot=True):
+        with captured_fd2([]):                  # the same remarks again: read once, in analyse()
+            kernel = CompiledKernel(Program(load(path)))
+        folder = pathlib.Path(kernel.path).parent if kernel.path else None
+        built = sorted(folder.glob("hapticgraph_aot*.so")) if kernel.backend.name == "aot" else []
+        if not built:
+            return None
+        dis = subprocess.run([objdump, "-d", "--no-show-raw-insn", str(built[0])], capture_output=True,
+                             text=True, check=True, timeout=300).stdout
+    # objdump's "0000000000001234 <name>:" and "   1234:\tvaddpd %ymm1,..." as the assembler's
+    text = re.sub(r"^[0-9a-f]+ <([^>]+)>:$", r"\1:", dis, flags=re.M)
+    return asm_packed(re.sub(r"^\s+[0-9a-f]+:\s+", "\t", text, flags=re.M))
+
+
 def analyse(path, dump=None):
     """The report of one patch (a JSON-able dict); "vectorised" is the verdict."""
     patch, ir, asm, kernel, err = compile_patch(path)
@@ -282,6 +311,15 @@ def analyse(path, dump=None):
     interior = [lp for lp in loops if is_interior(lp, dims)]
     return {"patch": str(path), "dims": dims, "vectorised": bool(interior) and dims > 0,
             "interior": interior, "loops": loops, "asm": asm_packed(asm), "remarks": remark_summary(err)}
+
+
+def check_aot(report):
+    """Adds the ahead-of-time module's packed instructions to the report; the verdict holds only if
+    each function holding an interior loop has packed instructions there too."""
+    report["aot"] = aot_packed(report["patch"])
+    if report["aot"] is not None:
+        report["vectorised"] = report["vectorised"] and all(
+            report["aot"].get(lp["function"], {"width": 1})["width"] >= 2 for lp in report["interior"])
 
 
 def short(function):
@@ -302,6 +340,11 @@ def show(report):
                      f"stores {lp['scalar_stores']:>2}   ({lp['blocks']} blocks)")
     asm = ", ".join(f"{short(f)} {a['packed']} (width {a['width']})" for f, a in report["asm"].items())
     lines.append(f"    assembly, packed double instructions: {asm or 'none'}")
+    if "aot" in report:
+        aot = report["aot"]
+        lines.append("    ahead of time: " + ("not built (no objdump, or no compiler for the extension module)"
+                                            if aot is None else ", ".join(f"{short(f)} {a['packed']} (width {a['width']})"
+                                                                          for f, a in aot.items()) or "none"))
     rem = report["remarks"]
     lines.append(f"    remarks: {len(rem['vectorized'])} loops vectorised: " + "; ".join(sorted(set(rem["vectorized"])))
                  + ("" if rem["vectorized"] else " (none: remarks off, or the helpers were compiled already, "
@@ -316,10 +359,15 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true", help="print the reports as one JSON list")
     ap.add_argument("--no-remarks", action="store_true", help="do not turn LLVM's remarks on")
     ap.add_argument("--dump", metavar="DIR", help="write each kernel's kernel.ll and kernel.s under DIR/PATCH/")
+    ap.add_argument("--aot", action="store_true", help="also disassemble the kernel built ahead of time: the "
+                    "functions holding the interior loop must have packed instructions there too")
     args = ap.parse_args(argv)
     if not args.no_remarks:
         enable_remarks()
     reports = [analyse(p, args.dump) for p in args.patches]
+    if args.aot:
+        for r in reports:
+            check_aot(r)
     print(json.dumps(reports, indent=1) if args.json else "\n".join(show(r) for r in reports))
     return 0 if all(r["vectorised"] for r in reports) else 1
 

@@ -97,3 +97,13 @@ def test_a_kernel_compiled_without_the_loop_vectoriser_fails_the_check():
                           capture_output=True, text=True, env=env, timeout=600)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "interior loop NOT VECTORISED" in proc.stdout
+
+
+def test_the_kernel_built_ahead_of_time_has_the_same_packed_loops():
+    """A warm run loads the extension module numba.pycc built (graph/aot.py), not the JIT's code."""
+    report = VEC.analyse(ROOT / "benchmarks" / "sheet_32.yaml")
+    VEC.check_aot(report)
+    assert report["aot"] is not None, "no extension module built (objdump or the C toolchain missing?)"
+    assert report["vectorised"], VEC.show(report)
+    for loop in report["interior"]:
+        assert report["aot"][loop["function"]]["width"] >= 2
