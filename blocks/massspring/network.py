@@ -9,7 +9,7 @@ Program to run it share it.
 """
 import numpy as np
 
-from ..family import Array, Control, Flag, LinearGroup, Number, Points
+from ..family import Array, Change, Control, Flag, LinearGroup, Number, Points
 from .arrays import IDX, cell_arrays, components, join_csr, lattice_csr
 from .laws import LinearLaw, network_step_for
 from .members import GROUND, index_problem, is_point_block, law_of, layout, owns_point, parse_ref, refs_of
@@ -34,7 +34,6 @@ class Network(LinearGroup):
         self.names = [m.name for m in members] + [s.name for s in springs]
         self.extra = layout(n, self.point_blocks, springs, [r for s in springs for r in refs_of(s)])
         self.pos = np.zeros(n + len(self.extra))
-        self.vel = np.zeros(n + len(self.extra))
         self.inv_m, self.damp, self.anchor, self.cid, counts, cols = cell_arrays(self.components, n)
         self.rowptr, self.col = lattice_csr(n, counts, cols)
         self.kr = np.ones(len(self.col))
@@ -50,14 +49,21 @@ class Network(LinearGroup):
     def use_stencils(self, allowed):
         """Step on a stencil when `allowed` and the network is one uniform lattice of 1, 2 or 3
         dimensions with nothing irregular; else on the CSR lists (cells can then be locked and
-        cut live)."""
+        cut live). A stencil steps in one pass over the positions now (`pos`) and one sample
+        before (`prev`, stencils.py), its velocities computed where read; the CSR lists keep the
+        half-step's velocities (`vel`), which joins, locks and live edits act on."""
         self.stencil = None
+        self.vel = self.prev = None
         only = self.components[0] if len(self.components) == 1 else None
         if allowed and only is not None and only.shape and len(only.shape) <= 3 and not self.springs \
                 and not self.extra:
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
                 self.stencil = ("string", "sheet", "cube")[len(only.shape) - 1]
+        if self.stencil is None:
+            self.vel = np.zeros(len(self.pos))
+        else:
+            self.prev = np.zeros(len(self.pos))
 
     def law(self, link):
         """The Law of a link here: a linear spring to an extra point runs as a law (the CSR lists
@@ -179,7 +185,7 @@ class Network(LinearGroup):
     @property
     def arrays(self):
         if self.stencil is not None:
-            return {"x": self.pos, "v": self.vel, "f": self.frc, "drv": self.drv}
+            return {"x": self.pos, "p": self.prev, "f": self.frc, "drv": self.drv}
         extra = {"pt_slot": self.pt_slot, "pt_in": self.pt_in} if self.extra else {}
         return {"x": self.pos, "v": self.vel, "f": self.frc, "inv_m": self.inv_m, "damp": self.damp,
                 "anchor": self.anchor, "cid": self.cid, "rowptr": self.rowptr, "col": self.col, "kr": self.kr,
@@ -200,6 +206,14 @@ class Network(LinearGroup):
 
     def point_array(self, port):
         return {"position": "x", "velocity": "v", "force": "f"}[port]
+
+    def reading(self, port):
+        if port == "velocity" and self.stencil is not None:
+            return Change("x", "p", self.rate)            # (x[n] − x[n−1]) · fs
+        return self.point_array(port)
+
+    def rotations(self):
+        return [("x", "p")] if self.stencil is not None else []
 
     def controls(self):
         """The live mass (as its inverse), tension and damping of each component, per sample."""
@@ -232,7 +246,7 @@ class Network(LinearGroup):
                 args += [Array(f"{law.name}_{k}") for k in "abpo"]
             return network_step_for(list(self.laws), points=bool(self.extra)), args
         comp = self.components[0]
-        args = [Array("x"), Array("v"), Array("f"), Array("drv")]
+        args = [Array("x"), Array("p"), Array("f"), Array("drv")]
         if len(comp.shape) > 1:                 # a sheet's rows and cols, a cube's planes, rows and cols
             names = ("planes", "rows", "cols")[-len(comp.shape):]
             args += [Number(extent, "int", name) for extent, name in zip(comp.shape, names)]
@@ -251,7 +265,19 @@ class Network(LinearGroup):
             return ()
         comp = self.by_name[block]
         cells = slice(comp.offset, comp.offset + comp.count)
-        return self.pos[cells], self.vel[cells]
+        return self.pos[cells], (self.vel if self.stencil is None else self.prev)[cells]
+
+    def remembers(self, block):
+        if block not in self.by_name:
+            return ()
+        return ("positions", "velocities" if self.stencil is None else "positions one sample before")
+
+    def velocities(self, cells):
+        """The velocities of cells (a slice): views of `vel`, or computed from the two position
+        buffers (a copy) on a stencil."""
+        if self.stencil is None:
+            return self.vel[cells]
+        return (self.pos[cells] - self.prev[cells]) * self.rate
 
     def points(self, block):
         """A lattice's or a cell's cells as views of the network's arrays (Group.points)."""
@@ -270,7 +296,7 @@ class Network(LinearGroup):
                     cut[flat - cells.start] = True
             locked = (self.inv_m[cells] == 0.0) & ~cut
             return locked.reshape(shape), cut.reshape(shape)
-        return Points(self.pos[cells].reshape(shape), self.vel[cells].reshape(shape), self.frc[cells].reshape(shape),
+        return Points(self.pos[cells].reshape(shape), self.velocities(cells).reshape(shape), self.frc[cells].reshape(shape),
                       comp.shape, index, status)
 
     def edit(self, block, index, action, apply=True):
