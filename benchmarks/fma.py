@@ -3,17 +3,20 @@
 
     python benchmarks/fma.py [--reps 9] [--seconds 0.25] [--quick]
 
-Bare numba (plain @njit: no fast-math, float64), the stencil alone, no hapticgraph:
+Bare numba (plain @njit: no fast-math, float64), the stencil alone, no hapticgraph, in two forms:
 
-    x_new[i] = A·x[i] − B·x_old[i] + C·(Σ neighbours of i)
+    fdtd:       x_new[i] = A·x[i] − B·x_old[i] + C·(Σ neighbours of i)
+    increment:  x_new[i] = x[i] + a·(x[i] − x_old[i]) + b·(Σ neighbours of i − k·x[i])
+                (the form of blocks/massspring/stencils.py since the one-pass rewrite)
 
 on a 30,000-cell string and on 32 × 32 and 150 × 150 sheets with a fixed boundary (a ghost border
 of zeros around the cells), written into the older buffer, the two buffers swapped each step. Two
-variants of the same loop:
-- plain: `a * x[i] - b * xo[i] + c * s` (numba's LLVM contracts nothing without fast-math);
-- fma:   `fma(c, s, fma(a, x[i], -(b * xo[i])))`, fma an explicit `llvm.fma.f64` (numba's extension
-  API, `numba.extending.intrinsic`): two of the three products rounded once with their sum.
-A, B, C are those of the benchmark lattices (mass 1 g, tension 10⁵ N/m, damping 10⁻⁴, 44.1 kHz).
+variants of each form:
+- plain: as written above (numba's LLVM contracts nothing without fast-math);
+- fma:   fdtd `fma(C, s, fma(A, x, -(B·x_old)))`, increment `fma(b, fma(−k, x, s), fma(a, x − x_old, x))`,
+  fma an explicit `llvm.fma.f64` (numba's extension API, `numba.extending.intrinsic`): every
+  product but one (fdtd) or all three (increment) rounded once with the sum it feeds.
+The coefficients are those of the benchmark lattices (mass 1 g, tension 10⁵ N/m, damping 10⁻⁴, 44.1 kHz).
 
 Each repetition starts both variants from the same random displacement (no subnormal numbers) and
 runs the same number of steps (about --seconds each), the two interleaved; steps/s is the best and
@@ -25,6 +28,7 @@ figure is never that of a loop that did not vectorise. Exit status 1 if the vari
 """
 import argparse
 import datetime
+import itertools
 import platform
 import re
 import statistics
@@ -37,10 +41,16 @@ import benchlib
 RATE, MASS, TENSION, DAMPING = 44100.0, 0.001, 100000.0, 0.0001
 TOLERANCE = 1e-9            # of the peak displacement
 CASES = [("string", (30000,)), ("sheet", (32, 32)), ("sheet", (150, 150))]
+FORMS = ("fdtd", "increment")
 
 
-def coefficients(dim):
-    """(A, B, C) of the damped leapfrog m·(x⁺ − 2x + x⁻)/dt² = T·Δx − R·(x⁺ − x⁻)/(2dt)."""
+def coefficients(form, dim):
+    """The three coefficients of a form at the benchmark lattices' mass, tension and damping.
+    fdtd: (A, B, C) of m·(x⁺ − 2x + x⁻)/dt² = T·Δx − R·(x⁺ − x⁻)/(2dt);
+    increment: (a, b, k) of blocks/massspring/stencils.py, x⁺ = x + a·(x − x⁻) + b·(Σ − k·x)."""
+    if form == "increment":
+        w = 1.0 / (RATE * MASS)
+        return 1.0 - w * DAMPING, w * TENSION / RATE, 2.0 * dim
     c2 = TENSION / MASS / RATE ** 2
     g = DAMPING / (2.0 * MASS * RATE)
     return (2.0 - 2.0 * dim * c2) / (1.0 + g), (1.0 - g) / (1.0 + g), c2 / (1.0 + g)
@@ -64,53 +74,47 @@ def fma_intrinsic():
 
 
 def make_kernels():
-    """{(name, variant): njit function(x, xo, a, b, c, steps) -> (newest, older)}; the fma variants
-    are the plain ones with two of their products fused."""
+    """{(kind, form, variant): njit function(x, xo, p, q, r, steps) -> (newest, older)}: one step
+    of each cell is cell(x, x_old, Σ neighbours, p, q, r); the fma variants fuse its products."""
     from numba import njit
     fma = fma_intrinsic()
+    cells = {
+        ("fdtd", "plain"): lambda xc, xp, s, p, q, r: p * xc - q * xp + r * s,
+        ("fdtd", "fma"): lambda xc, xp, s, p, q, r: fma(r, s, fma(p, xc, -(q * xp))),
+        ("increment", "plain"): lambda xc, xp, s, p, q, r: xc + p * (xc - xp) + q * (s - r * xc),
+        ("increment", "fma"): lambda xc, xp, s, p, q, r: fma(q, fma(-r, xc, s), fma(p, xc - xp, xc)),
+    }
+    kernels = {}
+    for (form, variant), cell in cells.items():
+        string, sheet = _steppers(njit(cell))
+        kernels[("string", form, variant)], kernels[("sheet", form, variant)] = string, sheet
+    return kernels
+
+
+def _steppers(cell):
+    """(string, sheet) stepping loops around one cell's update (inlined by LLVM)."""
+    from numba import njit
 
     @njit
-    def string_fma(x, xo, a, b, c, steps):
+    def string(x, xo, p, q, r, steps):
         n = x.shape[0]
         for _ in range(steps):
             for i in range(1, n - 1):
-                xo[i] = fma(c, x[i - 1] + x[i + 1], fma(a, x[i], -(b * xo[i])))
+                xo[i] = cell(x[i], xo[i], x[i - 1] + x[i + 1], p, q, r)
             x, xo = xo, x
         return x, xo
 
     @njit
-    def sheet_fma(x, xo, a, b, c, steps):
+    def sheet(x, xo, p, q, r, steps):
         rows, cols = x.shape
         for _ in range(steps):
-            for r in range(1, rows - 1):
+            for i in range(1, rows - 1):
                 for j in range(1, cols - 1):
-                    s = (x[r - 1, j] + x[r + 1, j]) + (x[r, j - 1] + x[r, j + 1])
-                    xo[r, j] = fma(c, s, fma(a, x[r, j], -(b * xo[r, j])))
+                    s = (x[i - 1, j] + x[i + 1, j]) + (x[i, j - 1] + x[i, j + 1])
+                    xo[i, j] = cell(x[i, j], xo[i, j], s, p, q, r)
             x, xo = xo, x
         return x, xo
-
-    return {("string", "plain"): njit(_string_plain), ("string", "fma"): string_fma,
-            ("sheet", "plain"): njit(_sheet_plain), ("sheet", "fma"): sheet_fma}
-
-
-def _string_plain(x, xo, a, b, c, steps):
-    n = x.shape[0]
-    for _ in range(steps):
-        for i in range(1, n - 1):
-            xo[i] = a * x[i] - b * xo[i] + c * (x[i - 1] + x[i + 1])
-        x, xo = xo, x
-    return x, xo
-
-
-def _sheet_plain(x, xo, a, b, c, steps):
-    rows, cols = x.shape
-    for _ in range(steps):
-        for r in range(1, rows - 1):
-            for j in range(1, cols - 1):
-                s = (x[r - 1, j] + x[r + 1, j]) + (x[r, j - 1] + x[r, j + 1])
-                xo[r, j] = a * x[r, j] - b * xo[r, j] + c * s
-        x, xo = xo, x
-    return x, xo
+    return string, sheet
 
 
 def initial(shape, seed=25):
@@ -141,10 +145,10 @@ def timed(fn, shape, coef, steps):
     return time.perf_counter() - start, new
 
 
-def measure(kernels, kind, shape, reps, seconds):
+def measure(kernels, kind, form, shape, reps, seconds):
     """One case: steps/s of each variant (best, median), and their disagreement."""
-    coef = coefficients(len(shape))
-    plain, fused = kernels[(kind, "plain")], kernels[(kind, "fma")]
+    coef = coefficients(form, len(shape))
+    plain, fused = kernels[(kind, form, "plain")], kernels[(kind, form, "fma")]
     for fn in (plain, fused):
         timed(fn, shape, coef, 2)                        # compile and warm
     t, _ = timed(plain, shape, coef, 200)
@@ -162,13 +166,13 @@ def measure(kernels, kind, shape, reps, seconds):
             "code": {name: machine_code(fn) for name, fn in (("plain", plain), ("fma", fused))}}
 
 
-def report(kind, shape, m):
+def report(kind, form, shape, m):
     cells = int(np.prod(shape))
     best = {k: max(v) for k, v in m["rates"].items()}
     med = {k: statistics.median(v) for k, v in m["rates"].items()}
-    label = f"{kind} {' x '.join(map(str, shape))}"
+    label = f"{kind} {' x '.join(map(str, shape))} {form}"
     (wp, _), (wf, nf) = m["code"]["plain"], m["code"]["fma"]
-    print(f"{label:<16} plain {best['plain']:>12,.0f} steps/s ({best['plain'] * cells / 1e9:.2f} G cells/s)"
+    print(f"{label:<26} plain {best['plain']:>12,.0f} steps/s ({best['plain'] * cells / 1e9:.2f} G cells/s)"
           f"   fma {best['fma']:>12,.0f} steps/s   ratio fma/plain best {best['fma'] / best['plain']:.3f}"
           f" median {med['fma'] / med['plain']:.3f}   |diff| {m['diff']:.1e} of peak"
           f"   width plain {wp} fma {wf} ({nf} vfmadd)")
@@ -188,11 +192,11 @@ def main(argv=None):
           f"best of {reps} interleaved runs of ~{seconds} s")
     kernels = make_kernels()
     bad = []
-    for kind, shape in CASES:
-        m = measure(kernels, kind, shape, reps, seconds)
-        report(kind, shape, m)
+    for (kind, shape), form in itertools.product(CASES, FORMS):
+        m = measure(kernels, kind, form, shape, reps, seconds)
+        report(kind, form, shape, m)
         if not m["diff"] <= TOLERANCE:
-            bad.append(f"{kind} {shape}: plain and fma differ by {m['diff']:.1e} of the peak (> {TOLERANCE})")
+            bad.append(f"{kind} {shape} {form}: plain and fma differ by {m['diff']:.1e} of the peak (> {TOLERANCE})")
     for line in bad:
         print("DISAGREE:", line, file=sys.stderr)
     return 1 if bad else 0
