@@ -19,8 +19,10 @@ variants of each form:
 The coefficients are those of the benchmark lattices (mass 1 g, tension 10⁵ N/m, damping 10⁻⁴, 44.1 kHz).
 
 Each repetition starts both variants from the same random displacement (no subnormal numbers) and
-runs the same number of steps (about --seconds each), the two interleaved; steps/s is the best and
-the median of --reps. Ratio = fma steps/s / plain steps/s (> 1: FMA is faster). The final states
+runs the same number of steps (about --seconds each), the two interleaved (each goes first every
+other time); steps/s is the best of --reps. Ratio = fma steps/s / plain steps/s (> 1: FMA is
+faster): of the best runs, and the median and quartiles of the ratios of runs made side by side
+(robust to a machine whose load changes during the run). The final states
 of the two must agree within rounding: max |plain − fma| ≤ 1e-9 of the peak (they differ only in
 where products are rounded; a wrong coefficient or neighbour gives 1e-4 or more). The machine code
 is inspected too: the vector width of the loop and the count of packed FMA instructions, so a
@@ -153,15 +155,13 @@ def measure(kernels, kind, form, shape, reps, seconds):
         timed(fn, shape, coef, 2)                        # compile and warm
     t, _ = timed(plain, shape, coef, 200)
     steps = max(200, int(seconds / t * 200))
-    rates = {"plain": [], "fma": []}
-    for _ in range(reps):
-        for name, fn in (("plain", plain), ("fma", fused)):
-            t, last = timed(fn, shape, coef, steps)
+    rates, last = {"plain": [], "fma": []}, {}
+    for k in range(reps):
+        pair = (("plain", plain), ("fma", fused))
+        for name, fn in pair if k % 2 == 0 else pair[::-1]:        # either goes first as often
+            t, last[name] = timed(fn, shape, coef, steps)
             rates[name].append(steps / t)
-            if name == "plain":
-                ref = last
-            else:
-                diff = float(np.max(np.abs(last - ref)) / np.max(np.abs(ref)))
+    diff = float(np.max(np.abs(last["fma"] - last["plain"])) / np.max(np.abs(last["plain"])))
     return {"steps": steps, "rates": rates, "diff": diff,
             "code": {name: machine_code(fn) for name, fn in (("plain", plain), ("fma", fused))}}
 
@@ -169,12 +169,13 @@ def measure(kernels, kind, form, shape, reps, seconds):
 def report(kind, form, shape, m):
     cells = int(np.prod(shape))
     best = {k: max(v) for k, v in m["rates"].items()}
-    med = {k: statistics.median(v) for k, v in m["rates"].items()}
+    paired = sorted(f / p for f, p in zip(m["rates"]["fma"], m["rates"]["plain"]))
+    q1, med, q3 = statistics.quantiles(paired, n=4) if len(paired) > 1 else paired * 3
     label = f"{kind} {' x '.join(map(str, shape))} {form}"
     (wp, _), (wf, nf) = m["code"]["plain"], m["code"]["fma"]
     print(f"{label:<26} plain {best['plain']:>12,.0f} steps/s ({best['plain'] * cells / 1e9:.2f} G cells/s)"
-          f"   fma {best['fma']:>12,.0f} steps/s   ratio fma/plain best {best['fma'] / best['plain']:.3f}"
-          f" median {med['fma'] / med['plain']:.3f}   |diff| {m['diff']:.1e} of peak"
+          f"   fma {best['fma']:>12,.0f} steps/s   fma/plain: best {best['fma'] / best['plain']:.3f},"
+          f" paired runs median {med:.3f} [{q1:.3f} … {q3:.3f}]   |diff| {m['diff']:.1e} of peak"
           f"   width plain {wp} fma {wf} ({nf} vfmadd)")
     return best["fma"] / best["plain"]
 
