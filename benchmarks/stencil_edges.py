@@ -3,7 +3,7 @@
 
     python benchmarks/stencil_edges.py [--reps 7] [--seconds 0.2]
 
-hapticgraph's stencils (blocks/massspring/stencils.py, one pass) run the interior of a lattice as
+hapticgraph's stencils (blocks/massspring/stencils.py, one pass: string, sheet and cube) run the interior of a lattice as
 one vectorised run and its faces apart, with every boundary test, the interior run's first and last
 columns set aside before it and put back after. Here, with the loop over steps inside one njit
 function and the two buffers swapped each step (no kernel around it):
@@ -32,7 +32,7 @@ import time
 import numpy as np
 from numba import njit
 
-from hapticgraph.blocks.massspring.stencils import sheet_step, string_step
+from hapticgraph.blocks.massspring.stencils import cube_step, sheet_step, string_step
 from hapticgraph.blocks.vocabulary import register_helpers
 
 INV_MASS, TENSION, DAMPING, DT = 1000.0, 100000.0, 0.0001, 1.0 / 44100
@@ -218,6 +218,39 @@ def string_interior(x, old, rows, cols, steps):
     return x
 
 
+@njit
+def _plane(back, up, mid, down, front, old, a, b):
+    for j in range(1, mid.shape[0] - 1):
+        xj = mid[j]
+        s = ((back[j] + front[j]) + (up[j] + down[j])) + (mid[j - 1] + mid[j + 1])
+        old[j] = xj + a * (xj - old[j]) + b * (s - 6.0 * xj)
+
+
+@njit
+def cube_stencil(x, old, rows, cols, steps):
+    """rows: the planes × rows of the cube, flattened (a cube: planes = rows)."""
+    frc, drv = np.zeros(x.shape[0]), np.zeros(0, dtype=np.int64)
+    for _ in range(steps):
+        cube_step(x, old, frc, drv, cols, cols, cols, INV_MASS, TENSION, DAMPING, DT, True)
+        x, old = old, x
+    return x
+
+
+@njit
+def cube_interior(x, old, rows, cols, steps):
+    """Only the runs over the interior rows of each interior plane, as cube_step makes them."""
+    a, b = coefficients_jit()
+    s0 = cols * cols
+    for _ in range(steps):
+        for p in range(1, cols - 1):
+            lo = p * s0 + cols
+            hi = lo + (cols - 2) * cols
+            _plane(x[lo - s0:hi - s0], x[lo - cols:hi - cols], x[lo:hi], x[lo + cols:hi + cols],
+                   x[lo + s0:hi + s0], old[lo:hi], a, b)
+        x, old = old, x
+    return x
+
+
 coefficients_jit = njit(coefficients)
 
 
@@ -233,7 +266,7 @@ def start(shape, pad):
 
 def run(fn, shape, pad, steps):
     x, old = start(shape, pad)
-    rows, cols = (x.shape + (1,))[:2] if len(shape) == 2 else (1, x.shape[0])
+    rows, cols = (int(np.prod(x.shape[:-1])), x.shape[-1]) if len(shape) > 1 else (1, x.shape[0])
     t0 = time.perf_counter()
     out = fn(x.ravel(), old.ravel(), rows, cols, steps)
     return time.perf_counter() - t0, out.reshape(x.shape)
@@ -275,6 +308,8 @@ def main(argv=None):
                                           ("rows", sheet_rows, 0), ("peeled", sheet_peeled, 0),
                                           ("saved", sheet_saved, 0),
                                           ("padded", sheet_padded, 1)], args.reps, args.seconds)
+    case("cube 20 x 20 x 20", (20, 20, 20), [("stencil", cube_stencil, 0), ("interior", cube_interior, 0)],
+         args.reps, args.seconds)
     return 0
 
 
