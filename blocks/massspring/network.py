@@ -17,10 +17,18 @@ from .stencils import cube_step, sheet_step, string_step
 from .steps import network_step
 
 STENCILS = {"string": string_step, "sheet": sheet_step, "cube": cube_step}
+# per-cell tables built on first use (Network.tables): a lattice on a stencil runs without them
+TABLES = ("inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr", "jrow", "jcol", "jk", "inv_m0", "nl_k", "nl_g")
+
+
+def _table(key):
+    return property(lambda self: self.tables()[key], doc=f"the per-cell table {key!r} (Network.tables)")
 
 
 class Network(LinearGroup):
     """The fused arrays of one group of touching mass-spring blocks (a family Group)."""
+
+    inv_m, damp, anchor, cid, rowptr, col, kr, jrow, jcol, jk, inv_m0, nl_k, nl_g = map(_table, TABLES)
 
     def __init__(self, members, springs, rate, stencils=True):
         self.dt = 1.0 / rate
@@ -34,14 +42,9 @@ class Network(LinearGroup):
         self.names = [m.name for m in members] + [s.name for s in springs]
         self.extra = layout(n, self.point_blocks, springs, [r for s in springs for r in refs_of(s)])
         self.pos = np.zeros(n + len(self.extra))
-        self.inv_m, self.damp, self.anchor, self.cid, counts, cols = cell_arrays(self.components, n)
-        self.rowptr, self.col = lattice_csr(n, counts, cols)
-        self.kr = np.ones(len(self.col))
+        self._tables = None
         self._build_laws()
-        self.jrow, self.jcol, self.jk = join_csr(n, [(self.cell_of(s.values["a"]), self.cell_of(s.values["b"]),
-                                                      s.values["tension"]) for s in springs if self.law(s) is None])
         self.scale = np.zeros((len(self.components), 3))   # per component: 1/mass, tension, damping
-        self.inv_m0 = self.inv_m.copy()
         self.cut_cells = {}
         self.drv = np.zeros(0, dtype=np.int64)    # the stencil's driven cells (wired), sorted
         self.use_stencils(stencils)
@@ -65,6 +68,33 @@ class Network(LinearGroup):
         else:
             self.prev = np.zeros(len(self.pos))
 
+    def tables(self):
+        """The per-cell tables (TABLES), built on first use: inverse masses, damping, anchors and
+        component ids (cell_arrays), the CSR lists of the lattices' springs and of the joins, the
+        nonlinear links' slopes per cell. The CSR step runs on them; `modes`, the stability check
+        of an irregular network and `points(...).locked` read them. A stencil runs without them,
+        so a uniform lattice holds its positions twice and its forces: 24 bytes a cell."""
+        if self._tables is None:
+            t, n = {}, self.n
+            t["inv_m"], t["damp"], t["anchor"], t["cid"], counts, cols = cell_arrays(self.components, n)
+            t["rowptr"], t["col"] = lattice_csr(n, counts, cols)
+            t["kr"] = np.ones(len(t["col"]))
+            joins = [(self.cell_of(s.values["a"]), self.cell_of(s.values["b"]), s.values["tension"])
+                     for s in self.springs if self.law(s) is None]
+            t["jrow"], t["jcol"], t["jk"] = join_csr(n, joins)
+            t["inv_m0"] = t["inv_m"].copy()
+            t["nl_k"], t["nl_g"] = np.zeros(n), np.zeros(n)
+            for c, slope, gamma in self.nl_slopes:
+                t["nl_k"][c] += slope
+                t["nl_g"][c] += gamma
+            self._tables = t
+        return self._tables
+
+    @property
+    def tables_built(self):
+        """Whether the per-cell tables exist (a uniform lattice that only ran never builds them)."""
+        return self._tables is not None
+
     def law(self, link):
         """The Law of a link here: a linear spring to an extra point runs as a law (the CSR lists
         hold cells only)."""
@@ -79,7 +109,7 @@ class Network(LinearGroup):
         slot), and per cell the Σ of their stiffest slopes and damping slopes and the stiffest
         link (for the stability check)."""
         self.laws, self.link_out = {}, {}
-        self.nl_k, self.nl_g, self.nl_worst = np.zeros(self.n), np.zeros(self.n), {}
+        self.nl_slopes, self.nl_worst = [], {}
         first = self.n + len(self.extra)
         for s in self.springs:
             law = self.law(s)
@@ -93,8 +123,7 @@ class Network(LinearGroup):
             for c in (a, b):
                 if c >= self.n:
                     continue
-                self.nl_k[c] += slope
-                self.nl_g[c] += gamma
+                self.nl_slopes.append((c, slope, gamma))
                 if max(slope, gamma) > self.nl_worst.get(c, (-1.0,))[0]:
                     what = f"slope up to {slope:.4g} N/m" if slope >= gamma else f"damping up to {gamma:.4g} N·s/m"
                     self.nl_worst[c] = (max(slope, gamma), s.name, law.name, what)
