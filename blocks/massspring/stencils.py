@@ -4,25 +4,48 @@ the CSR lists of `network_step` (steps.py): so a 100,000-cell instrument is one 
 
 They run the half-step scheme of steps.py with the velocity eliminated, v[n−½] = (x[n] − x[n−1])/dt:
 
-    x[n+1] = x[n] + a·(x[n] − x[n−1]) + b·(Σ_neighbours x[n] − k·x[n]) + c·F[n],
-    a = 1 − dt·γ/m,   b = dt²·T/m,   c = dt²/m,
+    x[n+1] = x[n] + a·(x[n] − x[n−1]) + b·(Σ_neighbours x[n] − 2·D·x[n]) + c·F[n],
+    a = 1 − dt·γ/m,   b = dt²·T/m,   c = dt²/m,   D the lattice's dimensions,
 
-k being the cell's springs (2 per axis with a fixed boundary, whose ghost cells sit at 0; its
-neighbours with a free one). The same recurrence in exact arithmetic, so the same stability bound
-and the same modes; only the rounding differs from the two-pass form. It is written as increments
-(x[n] − x[n−1], Σ − k·x) rather than as the FDTD's (2 − ...)·x[n] − x[n−1] + ...: that form rounds
-its diagonal once and errs by the same eps·|x| every step, a drift a free lattice's rigid mode
-integrates (its momentum off by 1e-9 after 0.2 s, against 1e-11 here), at the same speed. Each step writes x[n+1]
-over x[n−1] (`old`) and the kernel then swaps the two buffers (the group's rotation, graph/family.py),
-so the positions `x` are x[n] whenever a block reads them, and a cell's velocity
-(x[n] − x[n−1])·fs is computed where it is read (a microphone, a probe, a coupling), not stored.
+over cells padded with a ghost border (`padded`: a rows × cols sheet lives in (rows + 2) ×
+(cols + 2) entries, row-major): a fixed boundary's ghosts sit at 0 (the anchor spring), a free
+one's copy the cell beside them (a spring that pulls nothing). So every cell has 2·D neighbours
+and there is no boundary test: all cells are ONE run with no tests (vectorised), which also
+writes into the ghost columns between rows (and rows between planes); each step first puts the
+ghosts of its positions right (`_sheet_ghosts`, `_cube_ghosts`), a few cells per row.
 
-Each stencil runs its interior as one loop with no tests (vectorised): the cells that loop must
-not decide (those at the faces of the run, and the driven cells listed in `drv`, whose force it
-does not read) are computed first into `frc` and put in place after it; the faces have every
-boundary test. Only the driven cells' forces are read, and each step clears them.
+The same recurrence as the half-step in exact arithmetic, so the same stability bound and the
+same modes; only the rounding differs. It is written as increments (x[n] − x[n−1], Σ − 2D·x)
+rather than as the FDTD's (2 − ...)·x[n] − x[n−1] + ...: that form rounds its diagonal once and
+errs by the same eps·|x| every step, a drift a free lattice's rigid mode integrates (its momentum
+off by 1e-9 after 0.2 s, against 1e-11 here), at the same speed.
+
+Each step writes x[n+1] over x[n−1] (`old`) and the kernel then swaps the two buffers (the
+group's rotation, graph/family.py), so the positions `x` are x[n] whenever a block reads them,
+and a cell's velocity (x[n] − x[n−1])·fs is computed where it is read (a microphone, a probe, a
+coupling), not stored. Forces are read only at the driven cells (`drv`, padded indices): each
+one's x[n+1], its force included, is computed first into `frc`, and put in place after the run.
 """
+import math
+
 from ..vocabulary import helper
+
+
+def padded(shape):
+    """The extents of a lattice's buffers: a ghost cell on each side of every axis."""
+    return tuple(int(s) + 2 for s in shape)
+
+
+def padded_index(shape, index):
+    """The flat index of cell `index` in buffers of extents padded(shape)."""
+    flat = 0
+    for s, i in zip(padded(shape), index):
+        flat = flat * s + int(i) + 1
+    return flat
+
+
+def padded_size(shape):
+    return math.prod(padded(shape))
 
 
 @helper
@@ -33,39 +56,26 @@ def _coefficients(inv_mass, tension, damping, dt):
 
 
 @helper
-def _side(s, k, x, i, step, lower, upper, fixed):
-    """(s, k) plus cell i's two neighbours `step` apart along one axis: their positions summed
-    into s, their springs counted in k; a missing one is the fixed boundary's ghost at 0 (a spring
-    but nothing to add), or nothing (free)."""
-    if lower:
-        s += x[i - step]
-        k += 1.0
-    elif fixed:
-        k += 1.0
-    if upper:
-        s += x[i + step]
-        k += 1.0
-    elif fixed:
-        k += 1.0
-    return s, k
+def _aside(x, old, frc, drv, strides, a, b, c, before):
+    """The driven cells, whose force the run does not read. `before` the run: each one's
+    x[n+1] (its force included) into frc; after it: into old, frc cleared."""
+    k = 2.0 * len(strides)
+    for j in range(drv.shape[0]):
+        i = drv[j]
+        if before:
+            s = 0.0
+            for step in strides:
+                s += x[i - step] + x[i + step]
+            xi = x[i]
+            frc[i] = xi + a * (xi - old[i]) + b * (s - k * xi) + c * frc[i]
+        else:
+            old[i] = frc[i]
+            frc[i] = 0.0
 
 
 @helper
-def _next(x, old, frc, i, s, k, a, b, c):
-    """Cell i's x[n+1] from its neighbours' sum s and its k springs, its force included."""
-    xi = x[i]
-    return xi + a * (xi - old[i]) + b * (s - k * xi) + c * frc[i]
-
-
-@helper
-def _line_cell(x, old, frc, i, n, a, b, c, fixed):
-    s, k = _side(0.0, 0.0, x, i, 1, i > 0, i < n - 1, fixed)
-    return _next(x, old, frc, i, s, k, a, b, c)
-
-
-@helper
-def _line_bulk(x, old, a, b):
-    """Cells 1 … n−2 of a string: no tests, vectorised."""
+def _line_run(x, old, a, b):
+    """Cells 1 … n of a padded string: no tests, vectorised."""
     for i in range(1, x.shape[0] - 1):
         xi = x[i]
         old[i] = xi + a * (xi - old[i]) + b * ((x[i - 1] + x[i + 1]) - 2.0 * xi)
@@ -73,105 +83,80 @@ def _line_bulk(x, old, a, b):
 
 @helper
 def string_step(x, old, frc, drv, inv_mass, tension, damping, dt, fixed):
-    """The 1-D stencil: x[n+1] of every cell into `old` (then swapped with `x` by the kernel)."""
-    n = x.shape[0]
+    """The 1-D stencil over a padded string: x[n+1] of every cell into `old` (then swapped)."""
+    n = x.shape[0] - 2
     a, b, c = _coefficients(inv_mass, tension, damping, dt)
-    for k in range(drv.shape[0]):                       # driven interior cells: aside, force read
-        i = drv[k]
-        if 0 < i < n - 1:
-            xi = x[i]
-            frc[i] = xi + a * (xi - old[i]) + b * ((x[i - 1] + x[i + 1]) - 2.0 * xi) + c * frc[i]
-    _line_bulk(x, old, a, b)
-    for k in range(drv.shape[0]):
-        i = drv[k]
-        if 0 < i < n - 1:
-            old[i] = frc[i]
-            frc[i] = 0.0
-    for i in range(0, n, max(n - 1, 1)):                # the ends, with their tests
-        old[i] = _line_cell(x, old, frc, i, n, a, b, c, fixed)
-        frc[i] = 0.0
+    x[0] = 0.0 if fixed else x[1]
+    x[n + 1] = 0.0 if fixed else x[n]
+    _aside(x, old, frc, drv, (1,), a, b, c, True)
+    _line_run(x, old, a, b)
+    _aside(x, old, frc, drv, (1,), a, b, c, False)
 
 
 @helper
-def _sheet_cell(x, old, frc, r, col, rows, cols, a, b, c, fixed):
-    """x[n+1] of cell (r, col) of a sheet with every boundary test, its force included."""
-    i = r * cols + col
-    s, k = _side(0.0, 0.0, x, i, cols, r > 0, r < rows - 1, fixed)
-    s, k = _side(s, k, x, i, 1, col > 0, col < cols - 1, fixed)
-    return _next(x, old, frc, i, s, k, a, b, c)
+def _sheet_ghosts(x, rows, cols, fixed):
+    """A padded sheet's ghosts as the boundary has them: 0 (fixed), or the cell beside (free).
+    The run wrote into the ghost columns; the ghost rows of a fixed sheet stay 0."""
+    width = cols + 2
+    for r in range(1, rows + 1):
+        i = r * width
+        x[i] = 0.0 if fixed else x[i + 1]
+        x[i + cols + 1] = 0.0 if fixed else x[i + cols]
+    if not fixed:
+        last = (rows + 1) * width
+        for col in range(width):
+            x[col] = x[width + col]
+            x[last + col] = x[last - width + col]
 
 
 @helper
-def _sheet_bulk(up, mid, down, old, a, b):
-    """Every interior row at once as one run (the views start one row apart and are indexed
-    from 1, so no index is negative: no wraparound test per access, no tests at all: vectorised).
-    The first and last columns come out wrong here: they are set aside before, put back after."""
+def _sheet_run(up, mid, down, old, a, b):
+    """Every cell of a padded sheet as one run (the views start one row apart and are indexed
+    from 1, so no index is negative: no wraparound test, no test at all: vectorised). It also
+    writes into the ghost columns between rows, put right at the next step."""
     for j in range(1, mid.shape[0] - 1):
         xj = mid[j]
         old[j] = xj + a * (xj - old[j]) + b * (((up[j] + down[j]) + (mid[j - 1] + mid[j + 1])) - 4.0 * xj)
 
 
 @helper
-def _sheet_aside(x, old, frc, drv, rows, cols, a, b, c, fixed, before):
-    """The cells of the interior rows the bulk loop must not decide: the first and last column,
-    and the driven cells. `before` the bulk: each one's x[n+1] into frc; after it: into old, frc
-    cleared."""
-    for r in range(1, rows - 1):
-        for col in range(0, cols, max(cols - 1, 1)):
-            i = r * cols + col
-            if before:
-                frc[i] = _sheet_cell(x, old, frc, r, col, rows, cols, a, b, c, fixed)
-            else:
-                old[i] = frc[i]
-                frc[i] = 0.0
-    for k in range(drv.shape[0]):
-        i = drv[k]
-        r, col = i // cols, i % cols
-        if r < 1 or r > rows - 2 or col < 1 or col > cols - 2:
-            continue                       # an edge cell: done above, or by the edge rows
-        if before:
-            xi = x[i]
-            s = (x[i - cols] + x[i + cols]) + (x[i - 1] + x[i + 1])
-            frc[i] = xi + a * (xi - old[i]) + b * (s - 4.0 * xi) + c * frc[i]
-        else:
-            old[i] = frc[i]
-            frc[i] = 0.0
-
-
-@helper
 def sheet_step(x, old, frc, drv, rows, cols, inv_mass, tension, damping, dt, fixed):
-    """The 2-D stencil of a uniform rows × cols lattice, row-major: the interior rows in one run
-    (`_sheet_bulk`), the cells it must not decide set aside around it, then the first and last
-    rows with every boundary test. x[n+1] goes into `old`."""
-    n = rows * cols
+    """The 2-D stencil over a padded rows × cols sheet: x[n+1] of every cell into `old`."""
     a, b, c = _coefficients(inv_mass, tension, damping, dt)
-    if rows > 2:
-        _sheet_aside(x, old, frc, drv, rows, cols, a, b, c, fixed, True)
-        _sheet_bulk(x[:n - 2 * cols], x[cols:n - cols], x[2 * cols:], old[cols:n - cols], a, b)
-        _sheet_aside(x, old, frc, drv, rows, cols, a, b, c, fixed, False)
-    for r in range(0, rows, max(rows - 1, 1)):          # rows 0 and rows - 1
-        for col in range(cols):
-            i = r * cols + col
-            old[i] = _sheet_cell(x, old, frc, r, col, rows, cols, a, b, c, fixed)
-            frc[i] = 0.0
+    width = cols + 2
+    lo, hi = width, (rows + 1) * width                  # rows 1 … rows, whole
+    _sheet_ghosts(x, rows, cols, fixed)
+    _aside(x, old, frc, drv, (width, 1), a, b, c, True)
+    _sheet_run(x[lo - width:hi - width], x[lo:hi], x[lo + width:hi + width], old[lo:hi], a, b)
+    _aside(x, old, frc, drv, (width, 1), a, b, c, False)
 
 
 @helper
-def _cube_cell(x, old, frc, p, r, col, planes, rows, cols, a, b, c, fixed):
-    """x[n+1] of cell (p, r, col) of a planes × rows × cols lattice with every boundary test."""
-    s0 = rows * cols
-    i = p * s0 + r * cols + col
-    s, k = _side(0.0, 0.0, x, i, s0, p > 0, p < planes - 1, fixed)
-    s, k = _side(s, k, x, i, cols, r > 0, r < rows - 1, fixed)
-    s, k = _side(s, k, x, i, 1, col > 0, col < cols - 1, fixed)
-    return _next(x, old, frc, i, s, k, a, b, c)
+def _cube_ghosts(x, planes, rows, cols, fixed):
+    """A padded cube's ghosts as the boundary has them: 0 (fixed), or the cell beside (free).
+    The run wrote into the ghost columns and the ghost rows of planes 1 … planes."""
+    width, area = cols + 2, (rows + 2) * (cols + 2)
+    for p in range(1, planes + 1):
+        base = p * area
+        for col in range(width):                       # ghost rows 0 and rows + 1
+            top, bottom = base + col, base + (rows + 1) * width + col
+            x[top] = 0.0 if fixed else x[top + width]
+            x[bottom] = 0.0 if fixed else x[bottom - width]
+        for r in range(1, rows + 1):                    # ghost columns 0 and cols + 1
+            i = base + r * width
+            x[i] = 0.0 if fixed else x[i + 1]
+            x[i + cols + 1] = 0.0 if fixed else x[i + cols]
+    if not fixed:
+        last = (planes + 1) * area
+        for k in range(area):
+            x[k] = x[area + k]
+            x[last + k] = x[last - area + k]
 
 
 @helper
-def _cube_bulk(back, up, mid, down, front, old, a, b):
-    """The interior rows of one interior plane as one run (views one plane or one row apart,
-    indexed from 1: no tests, vectorised); its first and last columns come out wrong and are set
-    aside before, put back after."""
+def _cube_run(back, up, mid, down, front, old, a, b):
+    """Every cell of a padded cube as one run (views one plane or one row apart, indexed from 1:
+    no tests, vectorised); it also writes into ghost rows and columns, put right next step."""
     for j in range(1, mid.shape[0] - 1):
         xj = mid[j]
         s = ((back[j] + front[j]) + (up[j] + down[j])) + (mid[j - 1] + mid[j + 1])
@@ -179,52 +164,13 @@ def _cube_bulk(back, up, mid, down, front, old, a, b):
 
 
 @helper
-def _cube_aside(x, old, frc, drv, planes, rows, cols, a, b, c, fixed, before):
-    """The cells of the interior rows of the interior planes the bulk loop must not decide: their
-    first and last column, and the driven cells. `before`: x[n+1] into frc; after: into old."""
-    for p in range(1, planes - 1):
-        for r in range(1, rows - 1):
-            for col in range(0, cols, max(cols - 1, 1)):
-                i = (p * rows + r) * cols + col
-                if before:
-                    frc[i] = _cube_cell(x, old, frc, p, r, col, planes, rows, cols, a, b, c, fixed)
-                else:
-                    old[i] = frc[i]
-                    frc[i] = 0.0
-    for k in range(drv.shape[0]):
-        i = drv[k]
-        p, rest = i // (rows * cols), i % (rows * cols)
-        r, col = rest // cols, rest % cols
-        if p < 1 or p > planes - 2 or r < 1 or r > rows - 2 or col < 1 or col > cols - 2:
-            continue                       # on a face or in a set-aside column: done there
-        if before:
-            frc[i] = _cube_cell(x, old, frc, p, r, col, planes, rows, cols, a, b, c, fixed)
-        else:
-            old[i] = frc[i]
-            frc[i] = 0.0
-
-
-@helper
 def cube_step(x, old, frc, drv, planes, rows, cols, inv_mass, tension, damping, dt, fixed):
-    """The 3-D stencil of a uniform planes × rows × cols lattice, row-major (the 7-point
-    Laplacian): the interior rows of each interior plane in one run (`_cube_bulk`), the cells it
-    must not decide set aside around it, then the faces with every boundary test."""
+    """The 3-D stencil (the 7-point Laplacian) over a padded planes × rows × cols lattice."""
     a, b, c = _coefficients(inv_mass, tension, damping, dt)
-    s0 = rows * cols
-    bulk = planes > 2 and rows > 2
-    if bulk:
-        _cube_aside(x, old, frc, drv, planes, rows, cols, a, b, c, fixed, True)
-        for p in range(1, planes - 1):
-            lo = p * s0 + cols                               # (p, 1, 0)
-            hi = lo + (rows - 2) * cols                      # (p, rows - 1, 0), not included
-            _cube_bulk(x[lo - s0:hi - s0], x[lo - cols:hi - cols], x[lo:hi], x[lo + cols:hi + cols],
-                       x[lo + s0:hi + s0], old[lo:hi], a, b)
-        _cube_aside(x, old, frc, drv, planes, rows, cols, a, b, c, fixed, False)
-    for p in range(planes):
-        face = not bulk or p == 0 or p == planes - 1
-        for r in range(rows):
-            if face or r == 0 or r == rows - 1:
-                for col in range(cols):
-                    i = (p * rows + r) * cols + col
-                    old[i] = _cube_cell(x, old, frc, p, r, col, planes, rows, cols, a, b, c, fixed)
-                    frc[i] = 0.0
+    width, area = cols + 2, (rows + 2) * (cols + 2)
+    lo, hi = area + width, planes * area + (rows + 1) * width    # (1, 1, 0) … (planes, rows + 1, 0)
+    _cube_ghosts(x, planes, rows, cols, fixed)
+    _aside(x, old, frc, drv, (area, width, 1), a, b, c, True)
+    _cube_run(x[lo - area:hi - area], x[lo - width:hi - width], x[lo:hi], x[lo + width:hi + width],
+              x[lo + area:hi + area], old[lo:hi], a, b)
+    _aside(x, old, frc, drv, (area, width, 1), a, b, c, False)

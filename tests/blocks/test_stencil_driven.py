@@ -41,9 +41,14 @@ def test_stencil_reads_forces_only_where_driven(shape, driven, fixed, compiled):
     pos, vel = rng.normal(size=n) * 1e-3, rng.normal(size=n) * 1e-2
     ref_pos, ref_vel = pos.copy(), vel.copy()
     dt = 1 / 44100
-    old = pos - dt * vel                     # x[n−1]: the one-pass form of v[n−½]
-    frc, ref_frc = np.zeros(n), np.zeros(n)
-    drv = np.array(driven, dtype=np.int64)
+    # the stencil's buffers: x[n] and x[n−1] (the one-pass form of v[n−½]) with a ghost border
+    x, old, frc = (np.zeros(stencils.padded_size(shape)) for _ in range(3))
+    inner = tuple(slice(1, -1) for _ in shape)
+    cells = (lambda a: a.reshape(stencils.padded(shape))[inner])
+    cells(x)[...] = pos.reshape(shape)
+    cells(old)[...] = (pos - dt * vel).reshape(shape)
+    ref_frc = np.zeros(n)
+    drv = np.array([stencils.padded_index(shape, np.unravel_index(i, shape)) for i in driven], dtype=np.int64)
     args = (1000.0, 50.0, 0.02, dt, fixed)
     step = (stencils.string_step, stencils.sheet_step, stencils.cube_step)[len(shape) - 1]
     if compiled:
@@ -52,14 +57,15 @@ def test_stencil_reads_forces_only_where_driven(shape, driven, fixed, compiled):
     for t in range(50):
         force = np.sin(0.3 * t + np.arange(len(driven)))
         frc[drv] += force
-        ref_frc[drv] += force
-        step(pos, old, frc, drv, *(shape if len(shape) > 1 else ()), *args)
-        pos, old = old, pos
+        ref_frc[driven] += force
+        step(x, old, frc, drv, *(shape if len(shape) > 1 else ()), *args)
+        x, old = old, x
         reference(ref_pos, ref_vel, ref_frc, shape, *args)
         assert not frc.any(), "the step must clear the forces it read"
     # rounding only: the reference sums in another order and keeps the velocity. 50 steps of
     # ~10 roundings each on |x| ~ 1e-3 stay far below 1e-12 of the peak; the velocity, a
     # difference of two positions ~ 1e-3 apart by ~ 2e-7, loses a factor |x|/|dt·v| ~ 5e3 of that.
+    pos = cells(x).ravel()
     assert np.allclose(pos, ref_pos, rtol=1e-12, atol=1e-12 * np.abs(ref_pos).max())
-    vel = (pos - old) / dt
+    vel = (pos - cells(old).ravel()) / dt
     assert np.allclose(vel, ref_vel, rtol=1e-8, atol=1e-8 * np.abs(ref_vel).max())
