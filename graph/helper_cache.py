@@ -4,9 +4,10 @@ cold compile of a kernel compiles the kernel, not every helper it calls again (a
 3.7 -> 1.6 s).
 
 The entry `numba_helpers_<key>/` of the shared folder (graph/kcache.py's shared_dir) holds numba's
-own cache files of those helpers. Its key is the host (graph/cachekey.py: versions, CPU) and the
-SHA-256 of every module file of hapticgraph's packages, so an edited helper, or one it calls in
-another file, is compiled afresh in a new entry. It is verified, never trusted, as a kernel's
+own cache files of those helpers. Its key is the host (graph/cachekey.py: versions, CPU), the
+folders of hapticgraph's packages (one entry per installation) and the SHA-256 of every module
+file in them, so an edited helper, or one it calls in another file, is compiled afresh in a new
+entry. It is verified, never trusted, as a kernel's
 entry is: before numba reads anything of it in a process, every file must match the entry's
 manifest (none missing, none extra, no link), else the entry is deleted and started empty; what
 numba wrote is listed in the manifest after each compile (`settle`) and at exit.
@@ -45,7 +46,8 @@ def _package_dirs():
 
 
 def _key(dirs):
-    """The host, and the digest of every module file of the packages (by its path in them)."""
+    """The host, the packages' folders (an entry per installation: numba's index of a helper
+    names its source file's time stamp) and the digest of every module file in them."""
     files = []
     for root in dirs:
         for top, folders, names in os.walk(root):
@@ -53,7 +55,7 @@ def _key(dirs):
             files += [(os.path.relpath(os.path.join(top, n), root), os.path.join(top, n)) for n in names
                       if n.endswith(".py")]
     h = hashlib.sha256()
-    h.update(f"{PREFIX} 1\0{host_id()}\0".encode("utf-8", "surrogatepass"))
+    h.update(f"{PREFIX} 1\0{host_id()}\0{os.pathsep.join(dirs)}\0".encode("utf-8", "surrogatepass"))
     for rel, path in sorted(files):
         h.update(f"{rel}\0{file_digest(path)}\0".encode("utf-8", "surrogatepass"))
     return h.hexdigest()[:24]
