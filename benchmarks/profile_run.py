@@ -21,12 +21,14 @@ import time
 
 # (stage, file suffix, function name): cumulative time of that function under cProfile
 STAGES = [
-    ("imports of numpy, numba, hapticgraph.graph (_import_engine)", "hapticgraph/cli.py", "_import_engine"),
-    ("patch load (schema, checks)", "graph/patch.py", "load"),
-    ("drivers opened (open_drivers)", "devices/__init__.py", "open_drivers"),
+    ("the command's imports (numpy, PyYAML, soundfile, hapticgraph: cli._command)", "hapticgraph/cli.py", "_command"),
+    ("patch load (schema verdict or check, plugins, checks)", "graph/patch.py", "load"),
+    ("  of which the JSON Schema check (whole_errors: a patch not found clean before)", "graph/explain.py",
+     "whole_errors"),
+    ("drivers opened (open_drivers)", "devices/opening.py", "open_drivers"),
     ("Program (plan, networks)", "graph/program.py", "__init__"),
-    ("CompiledKernel (code generation, numba cache load)", "graph/kernel.py", "__init__"),
-    ("  of which numba's first-use init and cache load (load_overload)", "numba/core/caching.py", "load_overload"),
+    ("CompiledKernel (code generation, cache verified, module loaded)", "graph/kernel.py", "__init__"),
+    ("  of which numba's cache load (JIT kernels: HAPTICGRAPH_AOT=0)", "numba/core/caching.py", "load_overload"),
     ("render loop (_stream)", "graph/engine.py", "_stream"),
     ("  kernel (CompiledKernel.run)", "graph/kernel.py", "run"),
     ("  simulated device: fill inputs", "devices/simulated.py", "fill"),
