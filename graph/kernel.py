@@ -14,8 +14,8 @@ import numpy as np
 from . import aot
 from .aot import AotBackend
 from .cachekey import kernel_key
-from .helper_cache import settle as settle_helpers
 from .codegen import generate
+from .helper_cache import settle as settle_helpers
 from .identifiers import note
 from .jit import JitBackend, KernelCode, jit
 from .kcache import CacheEntry, cache_dir, usable_cache_dir, warn_once
