@@ -3,7 +3,8 @@
 sample, for the small lattices (32 x 32 sheet, 100-cell string) and the Fig. 7 bowed string.
 
     python benchmarks/overhead.py                 # about 2 minutes on a quiet machine
-    python benchmarks/overhead.py --quick         # short renders, 3 repetitions
+    python benchmarks/overhead.py --quick         # short renders, 5 repetitions
+    python benchmarks/overhead.py --kernel-only   # CompiledKernel.run only (before/after a change)
     python benchmarks/overhead.py --show sheet_32 # also print each variant's kernel source
     python benchmarks/overhead.py --only sheet_32 --probed sheet_32 --probe 's[3, 4].position' ...
                                                   # a kernel that records probes too
@@ -63,9 +64,9 @@ from hapticgraph.graph.program import Program
 
 HERE = pathlib.Path(__file__).resolve().parent
 # (name, patch, seconds rendered, seconds --quick)
-PATCHES = [("sheet_32", HERE / "sheet_32.yaml", 5.0, 1.0),
-           ("string_100", HERE / "string_100.yaml", 60.0, 10.0),
-           ("fig7", "fig7", 60.0, 10.0)]
+PATCHES = [("sheet_32", HERE / "sheet_32.yaml", 2.0, 0.5),
+           ("string_100", HERE / "string_100.yaml", 20.0, 5.0),
+           ("fig7", "fig7", 60.0, 15.0)]
 KINDS = ("outputs", "records", "guard", "updates", "group forces", "group controls", "group step")
 
 
@@ -343,14 +344,14 @@ def kernel_blocks(prog, ext, frames=64):
     return seconds * ext.shape[0] / (calls * frames)
 
 
-def measure(name, patch_path, seconds, reps, show, probes=()):
-    """{label: ns per sample} of every variant and of CompiledKernel.run, for one patch."""
+def measure(name, patch_path, seconds, reps, show, probes=(), kernel_only=False):
+    """{label: ns per sample} of every variant (none if kernel_only) and of CompiledKernel.run."""
     patch = load(str(patch_path))
     prog = Program(patch, probes, open_drivers(patch))
     samples = int(seconds * prog.rate)
     ext = device_inputs(prog, open_drivers(patch), samples)
     fns = {}
-    for label, source in variants(prog).items():
+    for label, source in ({} if kernel_only else variants(prog)).items():
         if show:
             print(f"# ---- {name}: {label}\n{source}")
         fns[label] = compiled(source)
@@ -362,7 +363,7 @@ def measure(name, patch_path, seconds, reps, show, probes=()):
             times[label].append(timed(fn, prog, ext))
         times["kernel alone"].append(kernel_alone(prog, ext))
         times["kernel, 64-frame calls"].append(kernel_blocks(prog, ext))
-        for label, value in bare(prog, samples).items():
+        for label, value in ({} if kernel_only else bare(prog, samples)).items():
             times.setdefault(label, []).append(value)
         print(f"  {name}: rep {rep + 1}/{reps}", file=sys.stderr, flush=True)
     return {label: min(t) / samples * 1e9 for label, t in times.items()}
@@ -370,9 +371,12 @@ def measure(name, patch_path, seconds, reps, show, probes=()):
 
 def table(name, ns):
     """The rows of one patch: ns per sample of each variant, and each kind's cost and share."""
+    head = (f"{name}: CompiledKernel.run {ns['kernel alone']:.1f} ns/sample in one call, "
+            f"{ns['kernel, 64-frame calls']:.1f} in 64-frame calls")
+    if "whole" not in ns:
+        return head
     whole = ns["whole"]
-    lines = [f"{name}: whole kernel {whole:.1f} ns/sample; CompiledKernel.run {ns['kernel alone']:.1f} ns/sample in "
-             f"one call, {ns['kernel, 64-frame calls']:.1f} in 64-frame calls",
+    lines = [f"{head}; the whole kernel (compiled here) {whole:.1f}",
              f"  {'variant':<18} {'ns/sample':>10} {'item cost':>10} {'share':>7}"]
     for label, value in ns.items():
         if label in ("whole", "kernel alone", "kernel, 64-frame calls"):
@@ -395,15 +399,16 @@ def name_in(name, only, default):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true", help="short renders, 3 repetitions")
-    ap.add_argument("--reps", type=int, default=None, help="repetitions (default 5, 3 with --quick)")
+    ap.add_argument("--quick", action="store_true", help="short renders, 5 repetitions")
+    ap.add_argument("--reps", type=int, default=None, help="repetitions (default 15, 5 with --quick)")
+    ap.add_argument("--kernel-only", action="store_true", help="time CompiledKernel.run only, no variants")
     ap.add_argument("--only", action="append", default=[], help="a built-in patch: sheet_32, string_100, fig7")
     ap.add_argument("--patch", action="append", default=[], help="another patch to measure (its file)")
     ap.add_argument("--probe", action="append", default=[], help="record this probe too (in the --probed patches)")
     ap.add_argument("--probed", action="append", default=[], help="a patch whose kernel records the --probe's")
     ap.add_argument("--show", action="append", default=[], help="print the variants' sources of this patch")
     args = ap.parse_args()
-    reps = args.reps or (3 if args.quick else 5)
+    reps = args.reps or (5 if args.quick else 15)
     with tempfile.TemporaryDirectory() as folder:
         # the built-in patches named by --only (all of them when neither option is given), then --patch's
         chosen = [row for row in PATCHES if name_in(row[0], args.only, not args.patch)]
@@ -412,7 +417,7 @@ def main():
             if path == "fig7":
                 path = run_all.fig7_patch(pathlib.Path(folder))
             probes = args.probe if name in args.probed else ()
-            ns = measure(name, path, quick if args.quick else full, reps, name in args.show, probes)
+            ns = measure(name, path, quick if args.quick else full, reps, name in args.show, probes, args.kernel_only)
             print(table(name, ns), flush=True)
 
 

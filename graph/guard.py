@@ -1,47 +1,27 @@
 """The guard: the safety check and the force clamp, one schedule item both engines run.
 
-Per sample, after the records, it clamps each force sent to a device to the device's max_force
-(`force_clamp`), unless that force is itself bad: not finite, or above the runaway limit (so a
-faulty force is reported as it was). Nothing else happens per sample: after the sample loop, and
-after the state is stored back, `kernel_guard` checks every recorded value of the call at once
-(not finite, or — in the audio columns and the forces sent to devices, never in a probe — above
-the runaway limit); only if one is bad does it look for the first (sample by sample, column by
-column); else it finds the first state slot that is not finite. On a fault it zeroes every force
-column of the call. The kernel returns its code: 0, 1 + sample·columns + column for a recorded
-value, −1 − slot for a state slot; the value at fault is left in coef (the guard's report slot)
-for the message. The earliest fault wins, whichever its kind.
+Per sample, after the records, it notes whether any recorded value is bad: not finite, or (in
+the audio columns and the forces sent to devices, never in a probe) above the runaway limit, and
+while none has been, clamps each force to its device's max_force (so the first faulty sample
+keeps its values as they were). After the sample loop, and after the state is stored back,
+`kernel_guard` finds the first bad value (sample by sample, column by column), or else the first
+state slot that is not finite, and on a fault zeroes every force column of the call. The kernel
+returns its code: 0, 1 + sample·columns + column for a recorded value, −1 − slot for a state
+slot; the value at fault is left in coef (the guard's report slot) for the message. The earliest
+fault wins, whichever its kind.
 
-Clamping a sound force never changes the verdict (a clamped value is no larger than the value),
-and on a fault every force of the call is zeroed: so the forces a call returns are those of a
-per-sample check that stops clamping at the first fault, for a fraction of its cost (issue 25,
-item 4: benchmarks/overhead.py measures it).
+The check is made per sample, on values the kernel still holds in registers: checking rec once
+after the loop instead reads the call's records back from memory, which cost more than it saved
+(Fig. 7 in one 60 s call: 27 -> 34 ns a sample; benchmarks/overhead.py measures each item's share).
 
 The runaway limit and every max_force are data (coef slots), so changing them never recompiles.
 """
 import math
 
 from ..blocks.vocabulary import helper
-from .identifiers import note
 
 # what the check compares with when there is no runaway limit: every finite number passes
 NO_LIMIT = 1.7976931348623157e308
-
-
-@helper
-def force_clamp(v, limit, top):
-    """A force v clamped to ±top (its device's max_force), unless it is bad (not abs(v) <= limit)."""
-    return min(max(v, -top), top) if abs(v) <= limit else v
-
-
-@helper
-def _all_sound(n, rec, limit, audio, forces):
-    """Whether every rec[i, c] of the call passes (no early exit: the loop vectorises)."""
-    sound = True
-    for c in range(rec.shape[1]):
-        bound = limit if (c < audio or c >= forces) else NO_LIMIT
-        for i in range(n):
-            sound &= abs(rec[i, c]) <= bound
-    return sound
 
 
 @helper
@@ -58,11 +38,11 @@ def _first_fault(n, rec, limit, audio, forces):
 
 
 @helper
-def kernel_guard(n, rec, state, coef, limit, audio, forces, report):
+def kernel_guard(n, bad, rec, state, coef, limit, audio, forces, report):
     """The end of a kernel call: its fault code, the value at fault in coef[report], and the force
     columns zeroed for the whole call on a fault."""
     code, value = 0, 0.0
-    if not _all_sound(n, rec, limit, audio, forces):
+    if bad:
         code, value = _first_fault(n, rec, limit, audio, forces)
     if code == 0:
         for k in range(state.shape[0]):
@@ -96,6 +76,7 @@ class Guard:
         self.limit = prog.number(NO_LIMIT, "float", "guard", "limit")
         self.tops = [prog.number(device_limit(prog.drivers[device]), "float", "guard", "max_force")
                      for device, _ in prog.device_records]
+        self.bad = prog.names.local(("guard", "bad"), "guard", "bad")
         self.report = len(prog.numbers)     # where the kernel leaves the value at fault (not a local)
         prog.numbers.append(0.0)
         self.runaway = math.inf
@@ -105,29 +86,46 @@ class Guard:
         self.runaway = float(runaway)
         self.prog.coef[self.limit.slot] = min(self.runaway, NO_LIMIT)
 
+    def _watched(self, c):
+        return c < self.audio or c >= self.forces
+
     # -- the schedule-item protocol ----------------------------------------------------------
     def functions(self):
-        return [kernel_guard] + ([force_clamp] if self.tops else [])
+        return [kernel_guard]
 
     def emit_start(self, e):
-        pass
+        e(f"{self.bad} = False")
 
     def emit(self, e):
-        for c, top in enumerate(self.tops, self.forces):
-            label = note(self.prog.records[c][0])
-            e(f"rec[i, {c}] = force_clamp(rec[i, {c}], {self.limit.emit()}, {top.emit()})  # {label}: max_force")
+        for c in range(self.columns):
+            bound = self.limit.emit() if self._watched(c) else "math.inf"
+            test = "<=" if self._watched(c) else "<"
+            e(f"{self.bad} |= not (abs(rec[i, {c}]) {test} {bound})")
+        if self.tops:
+            # clamped once the sample is known sound: the first faulty sample keeps its values
+            e(f"if not {self.bad}:")
+            e.indent()
+            for c, top in enumerate(self.tops, self.forces):
+                e(f"rec[i, {c}] = min(max(rec[i, {c}], -{top.emit()}), {top.emit()})")
+            e.dedent()
 
     def emit_end(self, e):
-        e(f"return kernel_guard(n, rec, state, coef, {self.limit.emit()}, {self.audio}, {self.forces}, {self.report})")
+        e(f"return kernel_guard(n, {self.bad}, rec, state, coef, {self.limit.emit()}, {self.audio}, "
+          f"{self.forces}, {self.report})")
 
     def run(self, frame):
         limit = self.limit.value(frame)
-        for c, top in enumerate(self.tops, self.forces):
-            frame.rec_row[c] = force_clamp(frame.rec_row[c], limit, top.value(frame))
+        for c, v in enumerate(frame.rec_row):
+            if not (abs(v) <= limit if self._watched(c) else abs(v) < math.inf):
+                frame.bad = True
+        if not frame.bad:
+            for c, top in enumerate(self.tops, self.forces):
+                top = top.value(frame)
+                frame.rec_row[c] = min(max(frame.rec_row[c], -top), top)
 
     def end(self, frame, rec):
-        return kernel_guard(rec.shape[0], rec, frame.state, frame.coef, self.limit.value(frame), self.audio,
-                            self.forces, self.report)
+        return kernel_guard(rec.shape[0], frame.bad, rec, frame.state, frame.coef, self.limit.value(frame),
+                            self.audio, self.forces, self.report)
 
     # -- what a code means ---------------------------------------------------------------------
     def describe(self, code, t0, n):

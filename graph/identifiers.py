@@ -67,7 +67,7 @@ def lit(v):
 
 # names the kernel module defines or reads besides the patch's locals
 KERNEL_NAMES = frozenset({"math", "np", "numba", "kernel", "t", "t0", "i", "n", "state", "live", "coef",
-                          "rec", "ext", "jit", "collections", "kernel_guard", "force_clamp"})
+                          "rec", "ext", "jit", "collections", "kernel_guard"})
 
 
 def _reserved(name):

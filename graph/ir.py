@@ -44,6 +44,7 @@ class Frame:
     rec_row: Any = None
     outs: dict = field(default_factory=dict)       # (block index, attr) -> value
     derived: dict = field(default_factory=dict)    # block index -> {coefficient: value}
+    bad: bool = False                              # the guard saw a bad record this call
 
 
 class Node:

@@ -8,7 +8,6 @@ import pytest
 
 from hapticgraph import load
 from hapticgraph.devices import open_drivers
-from hapticgraph.graph import guard
 from hapticgraph.graph.engine import SafetyStop, Session
 from hapticgraph.graph.interpreter import Interpreter
 from hapticgraph.graph.kernel import CompiledKernel
@@ -230,39 +229,3 @@ def test_a_force_over_the_limit_is_reported_as_it_was_not_clamped(write_patch):
     with pytest.raises(SafetyStop, match=r"runaway: pick.force -> finger reached 1 at 0.0000 s, over the limit 0.5"):
         s.process(8)
     assert np.all(s.prog.drivers["finger"].force_sent() == 0.0)
-
-
-def _sound_cases():
-    rng = np.random.default_rng(25)
-    for _ in range(300):
-        n, columns = int(rng.integers(0, 9)), int(rng.integers(1, 5))
-        rec = rng.normal(0.0, 1.0, (n, columns))
-        for _ in range(int(rng.integers(0, 3))):
-            if n:
-                rec[rng.integers(n), rng.integers(columns)] = rng.choice([math.nan, math.inf, -math.inf, 3.0, -3.0])
-        audio = int(rng.integers(0, columns + 1))
-        forces = int(rng.integers(audio, columns + 1))
-        yield rec, float(rng.choice([2.0, guard.NO_LIMIT])), audio, forces
-
-
-def test_the_check_of_the_whole_call_agrees_with_the_search_for_the_first_fault():
-    """_all_sound (no early exit) is true exactly when _first_fault finds nothing, in Python and
-    compiled; force_clamp leaves a bad force as it is and clamps a sound one, in both."""
-    import numba
-
-    @numba.njit
-    def compiled(n, rec, limit, audio, forces):
-        return guard._all_sound(n, rec, limit, audio, forces), guard._first_fault(n, rec, limit, audio, forces)[0]
-
-    @numba.njit
-    def clamp(v, limit, top):
-        return guard.force_clamp(v, limit, top)
-
-    for rec, limit, audio, forces in _sound_cases():
-        n = rec.shape[0]
-        found = guard._first_fault(n, rec, limit, audio, forces)[0]
-        assert guard._all_sound(n, rec, limit, audio, forces) == (found == 0)
-        assert compiled(n, rec, limit, audio, forces) == (found == 0, found)
-    for v in (0.3, -0.3, 1.5, -1.5, 3.0, -3.0, math.inf, -math.inf):
-        assert clamp(v, 2.0, 1.0) == guard.force_clamp(v, 2.0, 1.0) == (v if abs(v) > 2.0 else max(-1.0, min(v, 1.0)))
-    assert math.isnan(clamp(math.nan, 2.0, 1.0)) and math.isnan(guard.force_clamp(math.nan, 2.0, 1.0))
