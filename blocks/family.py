@@ -48,13 +48,24 @@ class Control:
 
 
 @dataclass(frozen=True)
+class Change:
+    """What a point's output reads when the group does not store it: the change of one array
+    against another, (array[key][i] − array[before][i]) · per (a lattice stepped in one pass
+    gives a cell's velocity as (x[n] − x[n−1]) · fs)."""
+    key: str
+    before: str
+    per: float
+
+
+@dataclass(frozen=True)
 class Points:
     """The points (cells) of one member of a group, as numpy views of the group's arrays: writing
     into one changes what the next step reads. `positions`, `velocities` and `forces` (the force
     each point receives in the next sample, cleared by every step) are shaped like the member
     (`shape`; () for a single cell) when it has all its cells, else one entry per cell it has
     (`cells` lists their indices, one row each). `status()` -> (locked, cut), bool arrays like
-    `positions`, as they are now."""
+    `positions`, as they are now. A group that does not store velocities (a lattice stepped in
+    one pass) gives them computed, a copy: writing into it changes nothing."""
     positions: object
     velocities: object
     forces: object
@@ -135,6 +146,15 @@ class Group:
         """The key of the array an output port reads, or an input port adds into."""
         raise NotImplementedError
 
+    def reading(self, port):
+        """What an output port of a point reads: an array key (its element), or a Change."""
+        return self.point_array(port)
+
+    def rotations(self):
+        """[(key, key)]: pairs of arrays the kernel swaps after each step (a step that writes its
+        new values over the older of two buffers); after a call both hold what they name."""
+        return []
+
     def controls(self):
         """[(array key, (row, col), Control)]: set every sample before the step."""
         return []
@@ -148,7 +168,13 @@ class Group:
         raise NotImplementedError
 
     def views(self, block):
-        """Writable views of what `block` remembers between samples (a reload carries them)."""
+        """Writable views of what `block` remembers between samples (a reload carries them), in
+        the order `remembers` names them."""
+        return ()
+
+    def remembers(self, block):
+        """What each of `views(block)` holds, by name (a reload carries views only between
+        groups that remember the same things)."""
         return ()
 
     def points(self, block):

@@ -31,7 +31,8 @@ def carry_state(old, new):
     """(dst, src) array pairs that give `new` (a Program) the current state of every block of
     `old` whose type, parameters and incoming connections did not change: its State slots, its
     buffers (ring buffers stay valid because the shared sample counter carries over) and its
-    cells' positions and velocities (Program.state_views). Also returns the names kept."""
+    cells' positions and velocities, or positions now and one sample before (Program.state_views,
+    between groups that remember the same things: Program.remembers). Also returns the names kept."""
     if old.rate != new.rate:
         return [], []
     into_old, into_new = _incoming(old.patch), _incoming(new.patch)
@@ -45,7 +46,7 @@ def carry_state(old, new):
         if into_old.get(name, []) != into_new.get(name, []):
             continue
         views_old, views_new = old.state_views(name), new.state_views(name)
-        if len(views_old) != len(views_new):
+        if len(views_old) != len(views_new) or old.remembers(name) != new.remembers(name):
             continue
         same_shape = [(vn, vo) for vo, vn in zip(views_old, views_new) if vo.shape == vn.shape]
         pairs += same_shape

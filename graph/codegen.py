@@ -4,7 +4,8 @@ small emitter. Numbers are data (the coef array); this text is the structure.
 The generated `kernel(n, t0, state, live, coef, rec, ext, <buffers>, <arrays>)` runs n samples: state
 and live parameters are loaded into locals before the sample loop and stored back after it; in
 the loop every schedule item (graph/items.py) emits its lines in order: every block's `output`
-then every `update`, the records and the guard (graph/guard.py), each fused group's step. Static
+then every `update`, the records and the guard (graph/guard.py), each fused group's step (and
+after the loop, each group's end: graph/family.py). Static
 values that are structure are literals, each with its name beside it; buffers are power-of-two
 rings indexed through the shared counter `t`. What may reach the text at all (identifiers,
 literals, comments) is graph/identifiers.py's business.
@@ -88,6 +89,8 @@ def generate(prog):
     for item in prog.items:
         item.emit(body)
     body.dedent()
+    for group in prog.groups:
+        group.emit_end(body)
     for bp in prog.plans:
         for node in bp.state_nodes:
             body(f"{node.load()} = {node.emit()}")

@@ -8,11 +8,11 @@ points the patch wires become numbers (data), the forces wired into points are s
 group's input array, its controls and step arguments become IR nodes (graph/ir.py) — one
 meaning, emitted for the kernel and evaluated by the interpreter.
 """
-from ..blocks.family import Array, Control, Flag, Number, touching
-from ..blocks.vocabulary import arguments
+from ..blocks.family import Array, Change, Control, Flag, Number, touching
+from ..blocks.vocabulary import arguments, helper
 from .codegen import emit_call
 from .identifiers import note
-from .ir import ArrayItem, Inverse, Literal, Total
+from .ir import ArrayItem, Difference, Inverse, Literal, Total
 
 
 def family_of(inst):
@@ -47,6 +47,16 @@ def kernel_cost(blocks):
         family.cost(g) for family, g in groups(blocks))
 
 
+@helper
+def exchange(a, b):
+    """Swap the contents of two arrays of one length (a rotation's end, after an odd number of
+    samples: each array then holds what it is named for again)."""
+    for i in range(a.shape[0]):
+        t = a[i]
+        a[i] = b[i]
+        b[i] = t
+
+
 class GroupStep:
     """One fused group's plan and its schedule item: the wired forces added into its points, its
     controls set, then its step — after every block's update, each sample."""
@@ -57,7 +67,7 @@ class GroupStep:
         self.arrays = {}                 # key -> ArrayRef
         for key, value in group.arrays.items():
             self.arrays[key] = prog.array(value, self.prefix, key)
-        self.points = {}                 # point index -> its number node
+        self.points = {}                 # point index (or a Change's scale) -> its number node
         self.forces = {}                 # (array key, point index) -> [sources]
         self.sets, self.call = [], None
 
@@ -71,8 +81,18 @@ class GroupStep:
         return self.points[flat]
 
     def element(self, end):
-        """What a connection from a point's output port reads: one element of a group array."""
-        ref = self.arrays[self.group.point_array(end.port)]
+        """What a connection from a point's output port reads: one element of a group array, or
+        the change of one against another (a Change: a velocity not stored)."""
+        read = self.group.reading(end.port)
+        if isinstance(read, Change):
+            key = ("per", read.key, read.before, read.per)
+            if key not in self.points:
+                self.points[key] = self.prog.number(read.per, "float", self.prefix, f"per_{read.key}_{read.before}")
+            return Difference(self._item(read.key, end), self._item(read.before, end), self.points[key])
+        return self._item(read, end)
+
+    def _item(self, key, end):
+        ref = self.arrays[key]
         return ArrayItem(ref.index, self._index(self.point(end)), ref.local)
 
     def add_force(self, end, source):
@@ -110,10 +130,11 @@ class GroupStep:
         fn, args = self.group.step()
         names = arguments(fn) + ("",) * len(args)       # a literal is named after its argument
         self.call = (fn, [self._node(a, names[k]) for k, a in enumerate(args)])
+        self.rotations = [(self.arrays[a], self.arrays[b]) for a, b in self.group.rotations()]
 
     # -- the schedule-item protocol ------------------------------------------------------------
     def functions(self):
-        return [self.call[0]]
+        return [self.call[0]] + ([exchange] if self.rotations else [])
 
     def emit(self, e):
         e(f"# {note(', '.join(self.group.names))} ({note(self.family.__name__)} group)")
@@ -123,6 +144,23 @@ class GroupStep:
             e(f"{ref.emit()}[{', '.join(map(str, at))}] = {node.emit()}")
         fn, args = self.call
         emit_call(e, "", fn.__name__, args)
+        for a, b in self.rotations:
+            e(f"{a.emit()}, {b.emit()} = {b.emit()}, {a.emit()}")
+
+    def emit_end(self, e):
+        """After the sample loop: an odd number of rotations leaves each buffer holding what the
+        other is named for; swapping their contents puts them back."""
+        for a, b in self.rotations:
+            e("if n % 2 == 1:")
+            e(f"    exchange({a.emit()}, {b.emit()})")
+
+    def end(self, frame, n):
+        """The interpreter's emit_end: the arrays put back in their slots, contents swapped."""
+        for a, b in self.rotations:
+            if n % 2 == 1:
+                arrays = frame.arrays
+                arrays[a.index], arrays[b.index] = arrays[b.index], arrays[a.index]
+                exchange(arrays[a.index], arrays[b.index])
 
     def run(self, frame):
         for (key, flat), sources in self.forces.items():
@@ -131,3 +169,6 @@ class GroupStep:
             frame.arrays[ref.index][at] = node.value(frame)
         fn, args = self.call
         fn(*[a.value(frame) for a in args])
+        for a, b in self.rotations:
+            arrays = frame.arrays
+            arrays[a.index], arrays[b.index] = arrays[b.index], arrays[a.index]

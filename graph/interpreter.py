@@ -20,4 +20,6 @@ class Interpreter:
             frame.outs, frame.derived = {}, {}
             for item in p.items:
                 item.run(frame)
+        for group in p.groups:
+            group.end(frame, rec.shape[0])
         return p.guard.end(frame, rec)

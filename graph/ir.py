@@ -253,6 +253,22 @@ class ArrayItem(Node):
 
 
 @dataclass(frozen=True)
+class Difference(Node):
+    """(a − b) · per: a value a group does not store, computed where read (a cell's velocity
+    from its position now and one sample before)."""
+    a: Node
+    b: Node
+    per: Node
+    atomic = False
+
+    def emit(self):
+        return f"({self.a.emit()} - {self.b.emit()}) * {self.per.emit()}"
+
+    def value(self, frame):
+        return (self.a.value(frame) - self.b.value(frame)) * self.per.value(frame)
+
+
+@dataclass(frozen=True)
 class BufferItem(Node):
     """Element `index` of a block's buffer: an output the block's `output` writes there this sample."""
     buffer: int

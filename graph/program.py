@@ -5,7 +5,6 @@ live parameters, coefficients, buffers and recordings.
 A binding is a node of the IR in ir.py (a literal, the sum of an input's connections, a live or
 state slot, a cell's position, a device column, ...), which says its meaning for both engines.
 """
-
 import numpy as np
 
 from ..blocks.vocabulary import arguments
@@ -372,14 +371,18 @@ class Program:
     def state_views(self, block):
         """Writable numpy views of everything `block` remembers between samples, always in the
         same order: each State slot (a view of one element of the state array), each buffer, then
-        what its fused group keeps for it (a lattice: its cells' positions and velocities).
-        Writing into a view changes what the next kernel call reads."""
+        what its fused group keeps for it (`remembers`). Writing into one changes the next call."""
         bp = self._plan(block)
         views = [self.state[s:s + 1] for s in bp.states] + [self.buffers[b] for b in bp.buffers]
         gs = self.group_of.get(block)
         if gs is not None:
             views += gs.group.views(block)
         return tuple(views)
+
+    def remembers(self, block):
+        """What the group's part of `state_views(block)` holds, by name (a reload matches them)."""
+        gs = self.group_of.get(block)
+        return tuple(gs.group.remembers(block)) if gs else ()
 
     def points(self, block):
         """The Points (blocks/family.py) of a lattice or cell block: numpy views of its cells."""

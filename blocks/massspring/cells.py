@@ -10,6 +10,8 @@ Integration is the half-step (leapfrog) scheme: velocities live half a sample ah
     v[n+½] = v[n−½] + dt/m · (F_springs(x[n]) + F[n] − γ·v[n−½]),   x[n+1] = x[n] + dt·v[n+½],
 stable while dt²·Σk/m + dt·γ/m < 2 for every cell (Gershgorin bound of the stiffness matrix).
 A cell's `position` output is x[n], its `velocity` v[n−½]; its `force` input acts on v[n+½].
+A uniform lattice on a stencil runs the same recurrence in one pass over its positions, with
+v[n−½] = (x[n] − x[n−1])·fs computed where it is read (stencils.py).
 """
 import math
 

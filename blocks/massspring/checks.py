@@ -183,7 +183,8 @@ def _worst_bound(bodies, springs, rate):
             locked = {tuple(i) for i in v["lock"]} | {tuple(c["index"]) for c in v["cells"] if c.get("locked")}
             cut = {tuple(i) for i in v["cut"]}
             overrides = {tuple(c["index"]): c for c in v["cells"]}
-            generic = tuple(1 if n >= 3 else 0 for n in shape)
+            # the first cell with the most springs: any with a fixed boundary (the ghosts count)
+            generic = tuple(0 if fixed or n < 3 else 1 for n in shape)
             cells = {generic} | set(overrides) | {i for (n, i) in joins if n == inst.name}
         else:
             own, locked, cut, overrides = 0.0, {None} if v["locked"] else set(), set(), {}
@@ -201,13 +202,22 @@ def _worst_bound(bodies, springs, rate):
     return best
 
 
+def _uniform(bodies, springs):
+    """One lattice with nothing irregular: its bound is exact (every cell has its mass and its
+    damping, the most springs are the most any cell has), so no per-cell table is built."""
+    if springs or len(bodies) != 1 or not is_lattice(bodies[0]):
+        return False
+    v = bodies[0].values
+    return not v["lock"] and not v["cut"] and not v["cells"]
+
+
 def check_stability(members, rate, problems):
     """Refuse a network whose half-step update would blow up, naming the worst cell."""
     for bodies, springs in group(members.values()):
         check_own_masses(springs, rate, problems)
         if not any(not is_point_block(m) for m in bodies):
             continue
-        exact = sum(_cells(m) for m in bodies) <= EXACT_CELLS
+        exact = sum(_cells(m) for m in bodies) <= EXACT_CELLS and not _uniform(bodies, springs)
         found = (_worst_exact if exact else _worst_bound)(bodies, springs, rate)
         if found is None or found[0] < STABILITY_BOUND:
             continue

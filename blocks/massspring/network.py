@@ -9,18 +9,26 @@ Program to run it share it.
 """
 import numpy as np
 
-from ..family import Array, Control, Flag, LinearGroup, Number, Points
+from ..family import Array, Change, Control, Flag, LinearGroup, Number, Points
 from .arrays import IDX, cell_arrays, components, join_csr, lattice_csr
 from .laws import LinearLaw, network_step_for
 from .members import GROUND, index_problem, is_point_block, law_of, layout, owns_point, parse_ref, refs_of
-from .stencils import cube_step, sheet_step, string_step
+from .stencils import cube_step, padded, padded_index, padded_size, sheet_step, string_step
 from .steps import network_step
 
 STENCILS = {"string": string_step, "sheet": sheet_step, "cube": cube_step}
+# per-cell tables built on first use (Network.tables): a lattice on a stencil runs without them
+TABLES = ("inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr", "jrow", "jcol", "jk", "inv_m0", "nl_k", "nl_g")
+
+
+def _table(key):
+    return property(lambda self: self.tables()[key], doc=f"the per-cell table {key!r} (Network.tables)")
 
 
 class Network(LinearGroup):
     """The fused arrays of one group of touching mass-spring blocks (a family Group)."""
+
+    inv_m, damp, anchor, cid, rowptr, col, kr, jrow, jcol, jk, inv_m0, nl_k, nl_g = map(_table, TABLES)
 
     def __init__(self, members, springs, rate, stencils=True):
         self.dt = 1.0 / rate
@@ -33,16 +41,9 @@ class Network(LinearGroup):
         self.n = n = sum(c.count for c in self.components)
         self.names = [m.name for m in members] + [s.name for s in springs]
         self.extra = layout(n, self.point_blocks, springs, [r for s in springs for r in refs_of(s)])
-        self.pos = np.zeros(n + len(self.extra))
-        self.vel = np.zeros(n + len(self.extra))
-        self.inv_m, self.damp, self.anchor, self.cid, counts, cols = cell_arrays(self.components, n)
-        self.rowptr, self.col = lattice_csr(n, counts, cols)
-        self.kr = np.ones(len(self.col))
+        self._tables = None
         self._build_laws()
-        self.jrow, self.jcol, self.jk = join_csr(n, [(self.cell_of(s.values["a"]), self.cell_of(s.values["b"]),
-                                                      s.values["tension"]) for s in springs if self.law(s) is None])
         self.scale = np.zeros((len(self.components), 3))   # per component: 1/mass, tension, damping
-        self.inv_m0 = self.inv_m.copy()
         self.cut_cells = {}
         self.drv = np.zeros(0, dtype=np.int64)    # the stencil's driven cells (wired), sorted
         self.use_stencils(stencils)
@@ -50,14 +51,51 @@ class Network(LinearGroup):
     def use_stencils(self, allowed):
         """Step on a stencil when `allowed` and the network is one uniform lattice of 1, 2 or 3
         dimensions with nothing irregular; else on the CSR lists (cells can then be locked and
-        cut live)."""
+        cut live). A stencil steps in one pass over the positions now (`pos`) and one sample
+        before (`prev`), both with a ghost border (stencils.py), its velocities computed where
+        read; the CSR lists keep the half-step's velocities (`vel`), which joins, locks and live
+        edits act on. Either way the arrays start at rest, made here."""
         self.stencil = None
+        self.vel = self.prev = None
         only = self.components[0] if len(self.components) == 1 else None
         if allowed and only is not None and only.shape and len(only.shape) <= 3 and not self.springs \
                 and not self.extra:
             v = only.inst.values
             if not v["lock"] and not v["cut"] and not v["cells"]:
                 self.stencil = ("string", "sheet", "cube")[len(only.shape) - 1]
+        if self.stencil is None:
+            points = self.n + len(self.extra)       # the cells, then the extra points, then link outputs
+            self.pos, self.vel, self.frc = np.zeros(points), np.zeros(points), np.zeros(points + len(self.link_out))
+        else:
+            size = padded_size(only.shape)
+            self.pos, self.prev, self.frc = np.zeros(size), np.zeros(size), np.zeros(size)
+
+    def tables(self):
+        """The per-cell tables (TABLES), built on first use: inverse masses, damping, anchors and
+        component ids (cell_arrays), the CSR lists of the lattices' springs and of the joins, the
+        nonlinear links' slopes per cell. The CSR step runs on them; `modes`, the stability check
+        of an irregular network and `points(...).locked` read them. A stencil runs without them,
+        so a uniform lattice holds its positions twice and its forces: 24 bytes a cell."""
+        if self._tables is None:
+            t, n = {}, self.n
+            t["inv_m"], t["damp"], t["anchor"], t["cid"], counts, cols = cell_arrays(self.components, n)
+            t["rowptr"], t["col"] = lattice_csr(n, counts, cols)
+            t["kr"] = np.ones(len(t["col"]))
+            joins = [(self.cell_of(s.values["a"]), self.cell_of(s.values["b"]), s.values["tension"])
+                     for s in self.springs if self.law(s) is None]
+            t["jrow"], t["jcol"], t["jk"] = join_csr(n, joins)
+            t["inv_m0"] = t["inv_m"].copy()
+            t["nl_k"], t["nl_g"] = np.zeros(n), np.zeros(n)
+            for c, slope, gamma in self.nl_slopes:
+                t["nl_k"][c] += slope
+                t["nl_g"][c] += gamma
+            self._tables = t
+        return self._tables
+
+    @property
+    def tables_built(self):
+        """Whether the per-cell tables exist (a uniform lattice that only ran never builds them)."""
+        return self._tables is not None
 
     def law(self, link):
         """The Law of a link here: a linear spring to an extra point runs as a law (the CSR lists
@@ -73,7 +111,7 @@ class Network(LinearGroup):
         slot), and per cell the Σ of their stiffest slopes and damping slopes and the stiffest
         link (for the stability check)."""
         self.laws, self.link_out = {}, {}
-        self.nl_k, self.nl_g, self.nl_worst = np.zeros(self.n), np.zeros(self.n), {}
+        self.nl_slopes, self.nl_worst = [], {}
         first = self.n + len(self.extra)
         for s in self.springs:
             law = self.law(s)
@@ -87,12 +125,10 @@ class Network(LinearGroup):
             for c in (a, b):
                 if c >= self.n:
                     continue
-                self.nl_k[c] += slope
-                self.nl_g[c] += gamma
+                self.nl_slopes.append((c, slope, gamma))
                 if max(slope, gamma) > self.nl_worst.get(c, (-1.0,))[0]:
                     what = f"slope up to {slope:.4g} N/m" if slope >= gamma else f"damping up to {gamma:.4g} N·s/m"
                     self.nl_worst[c] = (max(slope, gamma), s.name, law.name, what)
-        self.frc = np.zeros(first + len(self.link_out))
         self.law_arrays = {}
         for law, rows in self.laws.items():
             self.law_arrays.update(_law_arrays(law, rows))
@@ -179,7 +215,7 @@ class Network(LinearGroup):
     @property
     def arrays(self):
         if self.stencil is not None:
-            return {"x": self.pos, "v": self.vel, "f": self.frc, "drv": self.drv}
+            return {"x": self.pos, "p": self.prev, "f": self.frc, "drv": self.drv}
         extra = {"pt_slot": self.pt_slot, "pt_in": self.pt_in} if self.extra else {}
         return {"x": self.pos, "v": self.vel, "f": self.frc, "inv_m": self.inv_m, "damp": self.damp,
                 "anchor": self.anchor, "cid": self.cid, "rowptr": self.rowptr, "col": self.col, "kr": self.kr,
@@ -195,11 +231,21 @@ class Network(LinearGroup):
             return None
         if comp.shape and index_problem(list(comp.shape), list(index)):
             return None
+        if self.stencil is not None:
+            return padded_index(comp.shape, index)
         flat = comp.flat(index)
         return None if flat is None or self.cut_cells.get(flat) else flat
 
     def point_array(self, port):
         return {"position": "x", "velocity": "v", "force": "f"}[port]
+
+    def reading(self, port):
+        if port == "velocity" and self.stencil is not None:
+            return Change("x", "p", self.rate)            # (x[n] − x[n−1]) · fs
+        return self.point_array(port)
+
+    def rotations(self):
+        return [("x", "p")] if self.stencil is not None else []
 
     def controls(self):
         """The live mass (as its inverse), tension and damping of each component, per sample."""
@@ -232,7 +278,7 @@ class Network(LinearGroup):
                 args += [Array(f"{law.name}_{k}") for k in "abpo"]
             return network_step_for(list(self.laws), points=bool(self.extra)), args
         comp = self.components[0]
-        args = [Array("x"), Array("v"), Array("f"), Array("drv")]
+        args = [Array("x"), Array("p"), Array("f"), Array("drv")]
         if len(comp.shape) > 1:                 # a sheet's rows and cols, a cube's planes, rows and cols
             names = ("planes", "rows", "cols")[-len(comp.shape):]
             args += [Number(extent, "int", name) for extent, name in zip(comp.shape, names)]
@@ -249,15 +295,31 @@ class Network(LinearGroup):
     def views(self, block):
         if block not in self.by_name:
             return ()
+        if self.stencil is not None:
+            return self._cells(self.pos), self._cells(self.prev)
         comp = self.by_name[block]
         cells = slice(comp.offset, comp.offset + comp.count)
         return self.pos[cells], self.vel[cells]
+
+    def remembers(self, block):
+        if block not in self.by_name:
+            return ()
+        return ("positions", "velocities" if self.stencil is None else "positions one sample before")
+
+    def _cells(self, array):
+        """A stencil's buffer seen as its lattice's cells: a view without the ghost border."""
+        shape = self.components[0].shape
+        return array.reshape(padded(shape))[tuple(slice(1, -1) for _ in shape)]
 
     def points(self, block):
         """A lattice's or a cell's cells as views of the network's arrays (Group.points)."""
         comp = self.by_name.get(block)
         if comp is None:
             raise ValueError(f"{block!r} is a link of a network; it has no cells")
+        if self.stencil is not None:               # every cell, none locked or cut; velocities computed
+            x, none = self._cells(self.pos), np.zeros(comp.shape, dtype=bool)
+            return Points(x, (x - self._cells(self.prev)) * self.rate, self._cells(self.frc), comp.shape,
+                          np.argwhere(np.ones(comp.shape, dtype=bool)), lambda: (none, none.copy()))
         cells = slice(comp.offset, comp.offset + comp.count)
         whole = comp.count == len(comp.compact)
         shape = comp.shape if whole else (comp.count,)

@@ -41,7 +41,7 @@ def builds(monkeypatch):
 
 
 def test_the_check_modes_and_the_program_share_one_network(write_patch, builds):
-    patch = load(write_patch(STRING))
+    patch = load(write_patch(STRING.replace("tension: 20000.0", "tension: 20000.0, lock: [[0]]")))
     assert len(builds) == 1                                   # the stability check's
     modal_frequencies(patch, count=3)
     assert mode_blocks(patch) == ["str"]
@@ -50,6 +50,20 @@ def test_the_check_modes_and_the_program_share_one_network(write_patch, builds):
     assert len(builds) == 1
     assert prog.groups[0].group is builds[0]
     assert isinstance(builds[0], LinearGroup)
+
+
+def test_a_uniform_lattice_is_checked_from_its_declarations(write_patch, builds):
+    """One uniform lattice: the stability check's bound is exact, so loading builds no network
+    (no per-cell table); the first to ask (here `modes`) builds it and the Program shares it."""
+    patch = load(write_patch(STRING))
+    assert builds == []
+    modal_frequencies(patch, count=3)
+    assert len(builds) == 1
+    prog = Program(patch)
+    assert prog.groups[0].group is builds[0] and len(builds) == 1
+    assert builds[0].tables_built                      # modes read them
+    fresh = Program(load(write_patch(STRING, name="again.yaml")))
+    assert fresh.groups[0].group.stencil == "string" and not fresh.groups[0].group.tables_built
 
 
 def test_a_second_program_runs_a_network_of_its_own(write_patch, builds):

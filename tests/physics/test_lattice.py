@@ -522,9 +522,10 @@ def test_the_cube_stencil_moves_cells_as_the_csr_lists_do(write_patch, boundary)
     """A uniform 3-D lattice runs on the 7-point stencil (cube_step); an editable session keeps it
     on the CSR spring lists (network_step). 3000 samples of a pluck into an interior cell and
     noise into a face cell: the same positions and velocities to rounding, everywhere in the
-    cube. The two sum the neighbours in another order; over 3000 steps those 1e-16 differences
-    grow to about 1e-12 of the peak in the free cube (its rigid mode integrates them), so 1e-10;
-    a wrong neighbour or a lost force is off by the signal itself."""
+    cube. The stencil steps in one pass (velocities from two positions), the lists in two: they
+    sum in another order, and over 3000 steps those 1e-16 differences grow to about 1e-12 of the
+    peak in the free cube (its rigid mode integrates them), so 1e-10; a wrong neighbour or a lost
+    force is off by the signal itself."""
     from hapticgraph.graph.engine import Session
     text = (f"hapticgraph: 1\nrate: 44100\nblocks:\n"
             f"  L: {{type: lattice, shape: [5, 4, 6], mass: 0.001, tension: 8.0e4, damping: 0.003, "
@@ -538,7 +539,8 @@ def test_the_cube_stencil_moves_cells_as_the_csr_lists_do(write_patch, boundary)
         s = Session(patch, editable=editable)
         assert (s.prog.group_of["L"].group.stencil is None) == editable
         s.process(3000)
-        cells[editable] = [v.copy() for v in s.prog.state_views("L")]
+        pts = s.prog.points("L")
+        cells[editable] = [pts.positions.reshape(-1).copy(), pts.velocities.reshape(-1).copy()]
     for stencil, csr in zip(cells[False], cells[True]):
         assert np.max(np.abs(stencil)) > 0
         np.testing.assert_allclose(stencil, csr, rtol=0, atol=1e-10 * np.max(np.abs(csr)))
