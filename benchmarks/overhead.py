@@ -58,7 +58,7 @@ import run_all
 from hapticgraph import load
 from hapticgraph.devices import open_drivers
 from hapticgraph.graph.codegen import emit_call, generate
-from hapticgraph.graph.family import GroupStep
+from hapticgraph.graph.family import GroupStep, exchange
 from hapticgraph.graph.guard import Guard
 from hapticgraph.graph.ir import Coef, Inverse, Literal, Live, Total
 from hapticgraph.graph.items import BlockOutput, BlockUpdate, Record
@@ -94,13 +94,14 @@ class Left:
 
 class Part:
     """Part of a fused group's item (as GroupStep.emit writes it, graph/family.py): the forces
-    into its points, the controls it sets, its step: those of `keep`."""
+    into its points, the controls it sets, its step (and the buffers it swaps): those of `keep`."""
 
     def __init__(self, gs, keep):
         self.gs, self.keep = gs, keep
 
     def functions(self):
-        return [self.gs.call[0]] if "group step" in self.keep else []
+        fns = [self.gs.call[0]] if "group step" in self.keep else []
+        return fns + ([exchange] if self.gs.rotations else [])     # the group's emit_end calls it
 
     def emit(self, e):
         gs = self.gs
@@ -113,6 +114,8 @@ class Part:
         if "group step" in self.keep:
             fn, args = gs.call
             emit_call(e, "", fn.__name__, args)
+            for a, b in gs.rotations:       # the buffers the step swaps
+                e(f"{a.emit()}, {b.emit()} = {b.emit()}, {a.emit()}")
 
 
 def constant(node):
