@@ -126,7 +126,11 @@ def _emit_imports(e, prog, uses_math):
     fns = _emit_block_imports(e, prog, called)
     for fn in sorted((fn for fn in called if fn not in fns), key=lambda f: (f.__module__, f.__name__)):
         module, name = dotted(fn.__module__, "module of a step function"), ident(fn.__name__, "step function")
-        e(f"from {module} import {name}")     # a @helper: numba compiles it where the kernel calls it
+        # a @helper (a group's step, the guard's end): inlined where the kernel calls it, as the
+        # block functions are; called, a stencil's step took 3-7 % more a sample, its arguments
+        # pushed on the stack every sample (benchmarks/overhead.py, "step inlined")
+        e(f"from {module} import {name}")
+        e(f"{name} = jit({name})")
         fns.append(fn)
     for bp in per_sample:
         fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)

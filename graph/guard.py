@@ -10,6 +10,10 @@ returns its code: 0, 1 + sample·columns + column for a recorded value, −1 −
 slot; the value at fault is left in coef (the guard's report slot) for the message. The earliest
 fault wins, whichever its kind.
 
+The check is made per sample, on values the kernel still holds in registers: checking rec once
+after the loop instead reads the call's records back from memory, which cost more than it saved
+(Fig. 7 in one 60 s call: 27 -> 34 ns a sample; benchmarks/overhead.py measures each item's share).
+
 The runaway limit and every max_force are data (coef slots), so changing them never recompiles.
 """
 import math

@@ -174,3 +174,58 @@ def test_another_layout_goes_through_the_dispatcher(patches_dir):
         runs.append(np.concatenate(blocks))
     np.testing.assert_array_equal(runs[0], runs[1])
     assert np.any(runs[0] != 0.0)
+
+
+KICK = """
+hapticgraph: 1
+rate: 8000
+devices:
+  finger: {{driver: simulated, max_force: {max_force}}}
+blocks:
+  push: {{type: constant, value: {push}}}
+  kick: {{type: pluck, time: 0.002, force: 5.0, duration: 0.002}}
+  pick: {{type: haptic, device: finger}}
+  out: {{type: audio_out, channels: 1}}
+connect:
+  - push.out -> pick.force
+  - {sound}.out -> out.ch0
+"""
+
+
+def test_a_runaway_later_in_the_call_zeroes_every_force_of_the_call(write_patch):
+    """Forces are clamped sample by sample, the records checked once after the loop: a runaway in
+    the audio at sample 17 gives the same code, message and zeroed forces in both engines."""
+    path = write_patch(KICK.format(max_force=0.5, push=1.0, sound="kick"))
+    (code, rec), (ref_code, ref) = _both(path, n=64, runaway=2.0, probes=["kick.out"])
+    np.testing.assert_array_equal(rec, ref)
+    assert code == ref_code and code > 0
+    i, col = divmod(code - 1, 3)
+    assert col == 0 and i > 16                      # the audio, once the pluck has risen past 2 N
+    assert np.all(np.abs(rec[:i, 0]) <= 2.0) and not abs(rec[i, 0]) <= 2.0
+    assert np.all(rec[:, 2] == 0.0)                  # the force sent: zeroed for the whole call
+    prog = Program(load(path), ["kick.out"], open_drivers(load(path)))
+    prog.guard.set_runaway(2.0)
+    prog.coef[prog.guard.report] = rec[i, 0]
+    message, kept = prog.guard.describe(code, 0, 64)
+    assert kept == i and message.startswith(f"runaway: out.ch0 reached {abs(rec[i, 0]):.3g} at {i / 8000:.4f} s")
+
+
+def test_a_probe_is_never_a_runaway_and_sound_forces_are_clamped(write_patch):
+    path = write_patch(KICK.format(max_force=0.5, push=1.0, sound="push"))
+    (code, rec), (ref_code, ref) = _both(path, n=64, runaway=2.0, probes=["kick.out"])
+    np.testing.assert_array_equal(rec, ref)
+    assert code == ref_code == 0
+    assert rec[:, 1].max() > 2.0                     # the probe went past the limit: not a fault
+    assert np.all(rec[:, 2] == 0.5)                  # every sample clamped
+
+
+def test_a_force_over_the_limit_is_reported_as_it_was_not_clamped(write_patch):
+    """max_force 0.2 < runaway 0.5 < the force 1.0: the message names 1, the force before the clamp."""
+    path = write_patch(PUSH.format(max_force=0.2, value=1.0))
+    (code, rec), (ref_code, ref) = _both(path, n=16, runaway=0.5)
+    assert code == ref_code == 1 + 0 * 2 + 1
+    np.testing.assert_array_equal(rec, ref)
+    s = Session(load(path), drivers=open_drivers(load(path)), runaway=0.5, blocksize=8)
+    with pytest.raises(SafetyStop, match=r"runaway: pick.force -> finger reached 1 at 0.0000 s, over the limit 0.5"):
+        s.process(8)
+    assert np.all(s.prog.drivers["finger"].force_sent() == 0.0)

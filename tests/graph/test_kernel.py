@@ -5,6 +5,7 @@ import sys
 
 import numpy as np
 
+from hapticgraph.graph.jit import JitBackend, KernelCode
 from hapticgraph.graph.kernel import CompiledKernel, generate
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.program import Program
@@ -222,3 +223,29 @@ def test_blocks_whose_names_sanitize_alike_get_distinct_identifiers(tmp_path):
     Interpreter(ref_prog).run(0, reference, np.zeros((64, 0)))
     assert np.any(compiled != 0.0)
     np.testing.assert_array_equal(compiled, reference)
+
+
+def test_a_groups_step_is_inlined_where_the_kernel_calls_it(write_patch):
+    """Issue 25, item 4: the step of a fused group is rebound through jit (inline="always"), so
+    its machine code holds no call to it (called, its arguments were pushed every sample)."""
+    path = write_patch("""
+        hapticgraph: 1
+        rate: 44100
+        blocks:
+          s: {type: lattice, shape: [16], mass: 0.001, tension: 1000.0}
+          pick: {type: pluck, force: 1.0, duration: 0.001}
+          out: {type: audio_out, channels: 1}
+        connect:
+          - pick.out -> s[3].force
+          - s[5].position -> out.ch0
+        """)
+    prog = Program(load(path))
+    source, _ = generate(prog)
+    (step,) = [gs.call[0].__name__ for gs in prog.groups]
+    assert f"\n{step} = jit({step})\n" in source
+    fn = JitBackend().memory(KernelCode("inline_test", source))
+    rec = np.zeros((8, len(prog.records)))
+    assert fn(8, 0, prog.state, prog.live, prog.coef, rec, np.zeros((8, 0)), *prog.buffers, *prog.arrays) == 0
+    asm = fn.inspect_asm(fn.signatures[0])
+    calls = [line for line in asm.splitlines() if "call" in line or "movabsq\t$_ZN" in line]
+    assert not [line for line in calls if step in line], "the step is called, not inlined"
