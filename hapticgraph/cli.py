@@ -40,6 +40,12 @@ def _command(name):
     return getattr(importlib.import_module(f".{module}", __package__), function)
 
 
+# commands whose work calls no BLAS routine (the kernel never does): numpy need not start its
+# BLAS library's thread pool when it is imported (0.09 s of `import numpy` on the 2-core VM),
+# unless the user chose a thread count
+NO_BLAS = ("run", "play", "check")
+
+
 def _compile_notice(text):
     print(f"hapticgraph: {text}", file=sys.stderr, flush=True)
 
@@ -47,7 +53,7 @@ def _compile_notice(text):
 def main(argv=None):
     """Run the command line `argv` (None: this process's, which then ends when main returns); its
     exit status."""
-    code = _main(argv)
+    code = _main(argv, argv is None)
     if argv is None:
         # the process ends now: its last garbage collection need not walk every object numba made
         # (0.2-0.6 s after a compile); every file was closed by the command
@@ -55,8 +61,10 @@ def main(argv=None):
     return code
 
 
-def _main(argv):
+def _main(argv, whole_process):
     args = _parser().parse_args(argv)
+    if whole_process and args.command in NO_BLAS:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     told = args.command in ("run", "play", "plot", "check") and not getattr(args, "quiet", False)
     if told:
         from .graph import kernel

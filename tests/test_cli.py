@@ -74,3 +74,28 @@ def test_every_subcommand_help_has_a_description_and_an_example(capsys):
         examples = text.split("examples:\n", 1)[1].splitlines()
         assert examples and all(e.startswith("  hapticgraph ") for e in examples if e.strip()), (name, text)
         assert any(e.startswith(f"  hapticgraph {name}") for e in examples), (name, examples)
+
+
+BLAS_PROBE = """
+import os, sys
+from hapticgraph.cli import main
+sys.argv = ["hapticgraph", *sys.argv[1:]]
+code = main()
+print("BLAS", os.environ.get("OPENBLAS_NUM_THREADS"), "numpy" in sys.modules, code)
+"""
+
+
+@pytest.mark.parametrize("command, env, expected", [
+    ("check", {}, "1"),                                 # no BLAS thread pool for a check, run or play
+    ("check", {"OPENBLAS_NUM_THREADS": "2"}, "2"),      # the user's choice stands
+    ("modes", {}, None),                                # modes solves eigenproblems: BLAS as it comes
+])
+def test_commands_that_call_no_blas_start_no_blas_threads(patches_dir, command, env, expected):
+    import os
+    import subprocess
+    import sys
+    full = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    proc = subprocess.run([sys.executable, "-c", BLAS_PROBE, command, str(patches_dir / "cymatic_string.yaml")],
+                          capture_output=True, text=True, env={**full, **env}, timeout=600)
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("BLAS"))
+    assert line == f"BLAS {expected} True 0", (line, proc.stderr)
