@@ -34,6 +34,7 @@ from .helper_cache import register as register_helpers
 from .jit import warm_arguments
 from .kcache import KERNEL_FILE, CacheEntry, usable_shared_dir
 from .numba_start import start as start_numba
+from .numba_start import wide_features
 
 NAME = "hapticgraph_aot"
 SPEC = "aot.json"
@@ -265,13 +266,15 @@ def _module(kernel, args, folder, runtime):
     cc = _cc()                  # first: it imports numba.pycc, quietly
     import numba
     from numba.core.compiler_lock import global_compiler_lock
+    from numba.core.codegen import AOTCPUCodegen
     from numba.pycc import compiler
     start_numba()
     register_helpers()
     cc.export("kernel", numba.types.int64(*(numba.typeof(a) for a in args)))(kernel)
     with tempfile.TemporaryDirectory(prefix="hapticgraph-aot-") as build:
         obj = os.path.join(build, "kernel.o")
-        mc = compiler.ModuleCompiler(cc._export_entries, NAME, True, cpu_name="host")
+        with _patched(AOTCPUCodegen, "_customize_tm_features", _wide_aot_features):
+            mc = compiler.ModuleCompiler(cc._export_entries, NAME, True, cpu_name="host")
         mc.external_init_function = cc._init_function
         with global_compiler_lock, _patched(compiler, "Flags", _nogil(compiler.Flags)):
             mc.write_native_object(obj, wrap=True)
@@ -284,6 +287,13 @@ def _module(kernel, args, folder, runtime):
             tools.link_shared(os.path.join(folder, library()), objects, tools.get_python_libraries(),
                               tools.get_python_library_dirs(), export_symbols=mc.dll_exports,
                               extra_ldflags=cc._get_extra_ldflags())
+
+
+def _wide_aot_features(codegen):
+    """The ahead-of-time target's features: its CPU model's, with the widest vectors allowed
+    (numba_start.WIDE_VECTORS), as the JIT target has them."""
+    import llvmlite.binding as llvm
+    return wide_features(llvm.get_host_cpu_features().flatten())
 
 
 def _runtime_key():

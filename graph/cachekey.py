@@ -8,6 +8,8 @@ import platform
 import sys
 from importlib import metadata
 
+from .numba_start import WIDE_VECTORS
+
 _SKIP_TOP = {"numpy", "numba", "llvmlite", "builtins"} | set(getattr(sys, "stdlib_module_names", ()))
 _host = []
 # the lines of /proc/cpuinfo that say which instructions the machine code may use
@@ -46,7 +48,8 @@ def host_id():
         import numpy
         _host.append("\0".join([dist_version("numba"), dist_version("llvmlite"), numpy.__version__, sys.version,
                                 sys.implementation.cache_tag or "", platform.machine(), _cpu(),
-                                os.environ.get("NUMBA_CPU_NAME", ""), os.environ.get("NUMBA_CPU_FEATURES", "")]))
+                                os.environ.get("NUMBA_CPU_NAME", ""), os.environ.get("NUMBA_CPU_FEATURES", ""),
+                                WIDE_VECTORS]))
     return _host[0]
 
 
