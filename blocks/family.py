@@ -65,13 +65,16 @@ class Points:
     (`shape`; () for a single cell) when it has all its cells, else one entry per cell it has
     (`cells` lists their indices, one row each). `status()` -> (locked, cut), bool arrays like
     `positions`, as they are now. A group that does not store velocities (a lattice stepped in
-    one pass) gives them computed, a copy: writing into it changes nothing."""
+    one pass) gives them computed, a copy: writing into it changes nothing; it gives instead
+    `previous`, the positions one sample before (views: what the next step reads), else None.
+    The views need not be contiguous (a lattice's cells inside a ghost border)."""
     positions: object
     velocities: object
     forces: object
     shape: tuple
     cells: object
     status: object
+    previous: object = None
 
     @property
     def locked(self):

@@ -317,9 +317,9 @@ class Network(LinearGroup):
         if comp is None:
             raise ValueError(f"{block!r} is a link of a network; it has no cells")
         if self.stencil is not None:               # every cell, none locked or cut; velocities computed
-            x, none = self._cells(self.pos), np.zeros(comp.shape, dtype=bool)
-            return Points(x, (x - self._cells(self.prev)) * self.rate, self._cells(self.frc), comp.shape,
-                          np.argwhere(np.ones(comp.shape, dtype=bool)), lambda: (none, none.copy()))
+            x, p, none = self._cells(self.pos), self._cells(self.prev), np.zeros(comp.shape, dtype=bool)
+            return Points(x, (x - p) * self.rate, self._cells(self.frc), comp.shape,
+                          np.argwhere(np.ones(comp.shape, dtype=bool)), lambda: (none, none.copy()), p)
         cells = slice(comp.offset, comp.offset + comp.count)
         whole = comp.count == len(comp.compact)
         shape = comp.shape if whole else (comp.count,)

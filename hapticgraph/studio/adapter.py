@@ -73,15 +73,15 @@ class Live:
 
 
 def cells_of(session, name):
-    """(flat view of the positions of body `name`, full-shape C-order index of each entry or
-    None when the body has all its cells)."""
+    """(view of the positions of body `name` — not always contiguous: flatten it when read —,
+    full-shape C-order index of each entry or None when the body has all its cells)."""
     pts = session.points(name)
-    flat = pts.positions.reshape(-1)
+    view = pts.positions
     shape = tuple(pts.shape) or (1,)
-    if flat.size == int(np.prod(shape)):
-        return flat, None
-    cells = np.asarray(pts.cells).reshape(flat.size, -1)
-    return flat, np.ravel_multi_index(tuple(cells.T), shape)
+    if view.size == int(np.prod(shape)):
+        return view, None
+    cells = np.asarray(pts.cells).reshape(view.size, -1)
+    return view, np.ravel_multi_index(tuple(cells.T), shape)
 
 
 def _structure(patch):
@@ -121,17 +121,40 @@ def apply_live(session, changes):
         session.set(block, param, value)
 
 
-class _Remap:
-    """The cells of an old body's array placed where the new body keeps them (cut cells
-    differ): read when the swap copies it (np.copyto calls __array__), the state at the swap."""
+class _Read:
+    """A value read when the swap copies it (np.copyto calls __array__): the state at the swap."""
 
-    def __init__(self, view, old_cells, new_cells, size):
-        self.view, self.old_cells, self.new_cells, self.size = view, old_cells, new_cells, size
+    def __init__(self, read):
+        self.read = read
 
     def __array__(self, dtype=None, copy=None):
-        full = np.zeros(self.size)
-        full[self.old_cells] = self.view
-        return full[self.new_cells]
+        return self.read()
+
+
+def _motion(pts, rate, which):
+    """The cells' positions (which 0), velocities (1) or positions one sample before (2) now, flat,
+    from what the body's group stores (velocities, or positions one sample before)."""
+    x = pts.positions.reshape(-1)
+    if which == 0:
+        return x
+    if pts.previous is None:
+        v = pts.velocities.reshape(-1)
+        return v if which == 1 else x - v / rate
+    p = pts.previous.reshape(-1)
+    return (x - p) * rate if which == 1 else p
+
+
+def _placed(before, rate, which, cells_old, cells_new, size, shape):
+    """What the new body's array `which` takes from the old body, read at the swap: the old
+    cells placed where the new body keeps them (cut cells differ), shaped `shape`."""
+    def read():
+        a = _motion(before, rate, which)
+        if not np.array_equal(cells_old, cells_new):
+            full = np.zeros(size)
+            full[cells_old] = a
+            a = full[cells_new]
+        return a.reshape(shape)
+    return _Read(read)
 
 
 def _cells(prog, name, shape):
@@ -154,9 +177,9 @@ def body_carry(old, new, kept):
         before, after = old.points(name), new.points(name)
         cells_old, cells_new = _cells(old, name, shape), _cells(new, name, shape)
         size = int(np.prod(shape))
-        for a, b in ((before.positions, after.positions), (before.velocities, after.velocities)):
-            a, b = a.reshape(-1), b.reshape(-1)
-            pairs.append((b, a if np.array_equal(cells_old, cells_new) else _Remap(a, cells_old, cells_new, size)))
+        second = (after.velocities, 1) if after.previous is None else (after.previous, 2)
+        for dst, which in ((after.positions, 0), second):
+            pairs.append((dst, _placed(before, old.rate, which, cells_old, cells_new, size, dst.shape)))
         locked = np.flatnonzero(np.asarray(after.locked).reshape(-1))
         zero = np.zeros(1)
         pairs += [(v.reshape(-1)[k:k + 1], zero) for k in locked for v in (after.positions, after.velocities)]

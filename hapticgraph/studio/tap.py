@@ -128,9 +128,9 @@ class Tap:
         frames = []
         for i, shape, pos, where, buf in self.bodies:
             if where is None:
-                np.copyto(buf, pos, casting="same_kind")
+                np.copyto(buf, pos.reshape(-1), casting="same_kind")
             else:                              # cut cells are not in the array: NaN in the frame
-                buf[where] = pos
+                buf[where] = pos.reshape(-1)
             frames.append(cell_frame(i, self.counter, t, shape, buf))
         self.frame = (self.counter, frames)
 
