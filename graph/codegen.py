@@ -10,11 +10,14 @@ values that are structure are literals, each with its name beside it; buffers ar
 rings indexed through the shared counter `t`. What may reach the text at all (identifiers,
 literals, comments) is graph/identifiers.py's business.
 """
+from . import denormals
 from .identifiers import KernelSourceError, comment, dotted, ident, note
 from .ir import Literal
 
 # the module the generated kernel imports its `jit` from (the JIT backend, graph/jit.py)
 JIT_MODULE = "hapticgraph.graph.jit"
+FPENV_MODULE = "hapticgraph.graph.fpenv"
+FLUSHES = denormals.SUPPORTED       # the kernel flushes subnormals where the interpreter does
 
 
 class Emitter:
@@ -82,6 +85,8 @@ def generate(prog):
     body.indent()
     for node in _loaded_nodes(prog):
         body(f"{node.emit()} = {node.load()}")
+    if FLUSHES:
+        body("fp_saved = flush_enter()      # subnormals flushed to zero, as the interpreter runs")
     prog.guard.emit_start(body)
     body("for i in range(n):")
     body.indent()
@@ -94,7 +99,10 @@ def generate(prog):
     for bp in prog.plans:
         for node in bp.state_nodes:
             body(f"{node.load()} = {node.emit()}")
-    prog.guard.emit_end(body)       # the safety check's verdict, forces zeroed or clamped
+    prog.guard.emit_end(body, "verdict")     # the safety check's verdict, forces zeroed or clamped
+    if FLUSHES:
+        body("flush_exit(fp_saved)")
+    body("return verdict")
     e = Emitter()
     e("# hapticgraph kernel, generated; do not edit. Numbers are data (coef); this text is the structure.")
     e("# schedule: " + " -> ".join(f"{note(bp.name, 30)}" for bp in prog.plans))
@@ -121,6 +129,8 @@ def _emit_imports(e, prog, uses_math):
     if uses_math:
         e("import math")
     e(f"from {JIT_MODULE} import jit")
+    if FLUSHES:
+        e(f"from {FPENV_MODULE} import flush_enter, flush_exit")
     e()
     called = {fn for item in prog.items for fn in item.functions()}
     fns = _emit_block_imports(e, prog, called)

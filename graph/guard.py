@@ -109,8 +109,9 @@ class Guard:
                 e(f"rec[i, {c}] = min(max(rec[i, {c}], -{top.emit()}), {top.emit()})")
             e.dedent()
 
-    def emit_end(self, e):
-        e(f"return kernel_guard(n, {self.bad}, rec, state, coef, {self.limit.emit()}, {self.audio}, "
+    def emit_end(self, e, verdict):
+        """The check after the loop, its code into the variable `verdict`."""
+        e(f"{verdict} = kernel_guard(n, {self.bad}, rec, state, coef, {self.limit.emit()}, {self.audio}, "
           f"{self.forces}, {self.report})")
 
     def run(self, frame):

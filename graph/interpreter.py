@@ -3,6 +3,7 @@ sample in plain Python, calling every block's functions and every fused group's 
 It shares the plan (which IR node feeds which argument, and what each node means: ir.py) with the
 compiler but no generated code, so it is the specification the compiled kernel is tested against.
 """
+from .denormals import FlushToZero
 from .ir import Frame
 from .program import Program
 
@@ -11,8 +12,15 @@ class Interpreter:
     def __init__(self, prog: Program):
         self.prog = prog
         self.compile_seconds = 0.0
+        self.flush = FlushToZero()
 
     def run(self, t0, rec, ext):
+        """Run rec.shape[0] samples from t0 with subnormals flushed to zero, as the kernel
+        does (graph/denormals.py); the guard's code (0: sound; graph/guard.py)."""
+        with self.flush:
+            return self._run(t0, rec, ext)
+
+    def _run(self, t0, rec, ext):
         p = self.prog
         frame = Frame(p.state, p.live, p.coef, p.buffers, p.arrays)
         for i in range(rec.shape[0]):
