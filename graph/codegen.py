@@ -136,11 +136,20 @@ def _emit_imports(e, prog, uses_math):
     fns = _emit_block_imports(e, prog, called)
     for fn in sorted((fn for fn in called if fn not in fns), key=lambda f: (f.__module__, f.__name__)):
         module, name = dotted(fn.__module__, "module of a step function"), ident(fn.__name__, "step function")
-        # a @helper (a group's step, the guard's end): inlined where the kernel calls it, as the
+        # a @helper (a group's step): inlined where the kernel calls it, as the
         # block functions are; called, a stencil's step took 3-7 % more a sample, its arguments
         # pushed on the stack every sample (benchmarks/overhead.py, "step inlined")
         e(f"from {module} import {name}")
         e(f"{name} = jit({name})")
+        fns.append(fn)
+    # called once a call, after the sample loop (the guard's verdict, a group's buffers put back):
+    # called, not inlined, their machine code comes from the shared cache (graph/helper_cache.py),
+    # and a cold compile does not type and optimise them inside every kernel (about 0.1 s of a
+    # 1,000-cell sheet's 1.5-2 s); a call costs nothing a sample
+    ends = {fn for item in prog.items for fn in item.ends()} - set(fns)
+    for fn in sorted(ends, key=lambda f: (f.__module__, f.__name__)):
+        module, name = dotted(fn.__module__, "module of an end function"), ident(fn.__name__, "end function")
+        e(f"from {module} import {name}")
         fns.append(fn)
     for bp in per_sample:
         fields = ", ".join(repr(ident(n, f"parameter of {bp.cls.type_name!r}")) for n in bp.cls.params)

@@ -134,7 +134,10 @@ class GroupStep:
 
     # -- the schedule-item protocol ------------------------------------------------------------
     def functions(self):
-        return [self.call[0]] + ([exchange] if self.rotations else [])
+        return [self.call[0]]
+
+    def ends(self):
+        return [exchange] if self.rotations else []
 
     def emit(self, e):
         e(f"# {note(', '.join(self.group.names))} ({note(self.family.__name__)} group)")

@@ -91,6 +91,9 @@ class Guard:
 
     # -- the schedule-item protocol ----------------------------------------------------------
     def functions(self):
+        return []
+
+    def ends(self):
         return [kernel_guard]
 
     def emit_start(self, e):

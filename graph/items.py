@@ -1,7 +1,10 @@
 """Schedule items: everything the kernel does in one sample, in order, through one protocol.
 
 Each item offers
-  functions()   the Python functions it calls (the kernel imports them; the cache key hashes them)
+  functions()   the Python functions it calls every sample (the kernel imports them and inlines
+                them; the cache key hashes them)
+  ends()        those it calls once, after the sample loop (imported and called, not inlined: a
+                cold compile types and optimises them no more; hashed by the cache key too)
   emit(e)       its lines of the kernel's sample loop (e: a graph.codegen.Emitter)
   run(frame)    the same step in the reference interpreter (frame: graph.ir.Frame)
 and the compiler and the interpreter loop over `Program.items` and nothing else: a block's
@@ -33,6 +36,9 @@ class BlockOutput:
     def functions(self):
         cls = self.bp.cls
         return ([cls.derive] if self.params is not None else []) + ([cls.output] if cls.output else [])
+
+    def ends(self):
+        return []
 
     def emit(self, e):
         bp, prog, tname = self.bp, self.prog, _tname(self.bp)
@@ -67,6 +73,9 @@ class Record:
     def functions(self):
         return []
 
+    def ends(self):
+        return []
+
     def emit(self, e):
         e(f"rec[i, {int(self.column)}] = {self.binding.emit()}  # {note(self.label)}")
 
@@ -82,6 +91,9 @@ class BlockUpdate:
 
     def functions(self):
         return [self.bp.cls.update]
+
+    def ends(self):
+        return []
 
     def emit(self, e):
         bp = self.bp

@@ -227,7 +227,8 @@ def test_blocks_whose_names_sanitize_alike_get_distinct_identifiers(tmp_path):
 
 def test_a_groups_step_is_inlined_where_the_kernel_calls_it(write_patch):
     """Issue 25, item 4: the step of a fused group is rebound through jit (inline="always"), so
-    its machine code holds no call to it (called, its arguments were pushed every sample)."""
+    its machine code holds no call to it (called, its arguments were pushed every sample); the
+    functions of the kernel's end are called (compiled once, in the shared cache)."""
     path = write_patch("""
         hapticgraph: 1
         rate: 44100
@@ -243,6 +244,9 @@ def test_a_groups_step_is_inlined_where_the_kernel_calls_it(write_patch):
     source, _ = generate(prog)
     (step,) = [gs.call[0].__name__ for gs in prog.groups]
     assert f"\n{step} = jit({step})\n" in source
+    # what runs once a call, after the loop (the guard's verdict, the buffers put back), is called
+    assert "\nfrom hapticgraph.graph.guard import kernel_guard\n" in source and "= jit(kernel_guard)" not in source
+    assert "\nfrom hapticgraph.graph.family import exchange\n" in source and "= jit(exchange)" not in source
     fn = JitBackend().memory(KernelCode("inline_test", source))
     rec = np.zeros((8, len(prog.records)))
     assert fn(8, 0, prog.state, prog.live, prog.coef, rec, np.zeros((8, 0)), *prog.buffers, *prog.arrays) == 0
