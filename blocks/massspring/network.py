@@ -13,7 +13,7 @@ from ..family import Array, Change, Control, Flag, LinearGroup, Number, Points
 from .arrays import IDX, cell_arrays, components, join_csr, lattice_csr
 from .laws import LinearLaw, network_step_for
 from .members import GROUND, index_problem, is_point_block, law_of, layout, owns_point, parse_ref, refs_of
-from .stencils import cube_step, padded, padded_index, padded_size, sheet_step, string_step
+from .stencils import cube_step, padded, padded_index, padded_zeros, sheet_step, string_step
 from .steps import network_step
 
 STENCILS = {"string": string_step, "sheet": sheet_step, "cube": cube_step}
@@ -67,8 +67,7 @@ class Network(LinearGroup):
             points = self.n + len(self.extra)       # the cells, then the extra points, then link outputs
             self.pos, self.vel, self.frc = np.zeros(points), np.zeros(points), np.zeros(points + len(self.link_out))
         else:
-            size = padded_size(only.shape)
-            self.pos, self.prev, self.frc = np.zeros(size), np.zeros(size), np.zeros(size)
+            self.pos, self.prev, self.frc = (padded_zeros(only.shape) for _ in range(3))
 
     def tables(self):
         """The per-cell tables (TABLES), built on first use: inverse masses, damping, anchors and

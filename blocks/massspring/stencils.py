@@ -28,7 +28,11 @@ one's x[n+1], its force included, is computed first into `frc`, and put in place
 """
 import math
 
+import numpy as np
+
 from ..vocabulary import helper
+
+ALIGN = 64          # bytes: a cache line, and one 8-wide vector of doubles
 
 
 def padded(shape):
@@ -46,6 +50,18 @@ def padded_index(shape, index):
 
 def padded_size(shape):
     return math.prod(padded(shape))
+
+
+def padded_zeros(shape):
+    """A zeroed buffer of padded_size(shape) doubles whose first cell (index (0, …, 0), where each
+    run's first load and store fall) starts a cache line: LLVM does not peel a loop to align it,
+    and 8-wide loads and stores that straddle two lines cost a 30,000-cell string's run 12-20 %
+    (0.43 against 0.49-0.53 ns a cell, bare numba, the four alignments interleaved). A view of
+    a slightly larger array, contiguous, so the kernel's types are the same."""
+    size, first = padded_size(shape), padded_index(shape, (0,) * len(shape))
+    raw = np.zeros(size + ALIGN // 8)
+    skip = ((-(raw.ctypes.data + 8 * first)) % ALIGN) // 8
+    return raw[skip:skip + size]
 
 
 @helper

@@ -9,6 +9,7 @@ import pytest
 from hapticgraph import PatchError, load, render
 from hapticgraph.blocks.family import LinearGroup
 from hapticgraph.blocks.massspring import network as network_module
+from hapticgraph.blocks.massspring import stencils
 from hapticgraph.graph.modes import mode_blocks, mode_shape, modal_frequencies
 from hapticgraph.graph.program import Program
 
@@ -122,3 +123,25 @@ def test_a_link_block_that_is_not_a_link_is_named(write_patch, tmp_path):
     assert "block 's' (old_spring): a member of the mass-spring family is a cell, a lattice, a point or a link" \
            in str(err.value)
     assert "subclasses Link" in str(err.value)
+
+
+@pytest.mark.parametrize("shape", [(30000,), (32, 32), (7,), (5, 6, 7), (1, 1)])
+def test_a_stencils_first_cell_starts_a_cache_line(shape, write_patch):
+    """A uniform lattice's two position buffers have their first cell (where each run's first
+    load and store fall) on a 64-byte boundary (stencils.padded_zeros: 8-wide loads and stores
+    that straddle two lines cost the run 12-20 %), contiguous, of the padded size."""
+    patch = load(write_patch(f"""
+        hapticgraph: 1
+        rate: 44100
+        blocks:
+          s: {{type: lattice, shape: {list(shape)}, mass: 0.001, tension: 10.0}}
+          out: {{type: audio_out, channels: 1}}
+        connect:
+          - s[{', '.join('0' for _ in shape)}].position -> out.ch0
+        """))
+    group = Program(patch).groups[0].group
+    assert group.stencil == ("string", "sheet", "cube")[len(shape) - 1]
+    first = stencils.padded_index(shape, (0,) * len(shape))
+    for buffer in (group.pos, group.prev):
+        assert buffer.flags["C_CONTIGUOUS"] and buffer.size == stencils.padded_size(shape)
+        assert (buffer.ctypes.data + 8 * first) % 64 == 0
