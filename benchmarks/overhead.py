@@ -87,6 +87,9 @@ class Left:
     def functions(self):
         return []
 
+    def ends(self):
+        return []
+
     def emit(self, e):
         for line in self.lines:
             e(line)
@@ -100,8 +103,10 @@ class Part:
         self.gs, self.keep = gs, keep
 
     def functions(self):
-        fns = [self.gs.call[0]] if "group step" in self.keep else []
-        return fns + ([exchange] if self.gs.rotations else [])     # the group's emit_end calls it
+        return [self.gs.call[0]] if "group step" in self.keep else []
+
+    def ends(self):
+        return [exchange] if self.gs.rotations else []     # the group's emit_end calls it
 
     def emit(self, e):
         gs = self.gs
@@ -149,8 +154,8 @@ class NoGuard:
     def emit_start(self, e):
         pass
 
-    def emit_end(self, e):
-        e("return 0")
+    def emit_end(self, e, verdict):
+        e(f"{verdict} = 0")
 
 
 def kind_of(item):
