@@ -308,7 +308,7 @@ class Network(LinearGroup):
     def _cells(self, array):
         """A stencil's buffer seen as its lattice's cells: a view without the ghost border."""
         shape = self.components[0].shape
-        return array.reshape(padded(shape))[tuple(slice(1, -1) for _ in shape)]
+        return array.reshape(padded(shape))[tuple(slice(1, 1 + s) for s in shape)]
 
     def points(self, block):
         """A lattice's or a cell's cells as views of the network's arrays (Group.points)."""

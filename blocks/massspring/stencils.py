@@ -8,7 +8,8 @@ They run the half-step scheme of steps.py with the velocity eliminated, v[n−½
     a = 1 − dt·γ/m,   b = dt²·T/m,   c = dt²/m,   D the lattice's dimensions,
 
 over cells padded with a ghost border (`padded`: a rows × cols sheet lives in (rows + 2) ×
-(cols + 2) entries, row-major): a fixed boundary's ghosts sit at 0 (the anchor spring), a free
+row_width(cols) entries, row-major: cols + 2, or a little more so that each row starts on a
+cache line): a fixed boundary's ghosts sit at 0 (the anchor spring), a free
 one's copy the cell beside them (a spring that pulls nothing). So every cell has 2·D neighbours
 and there is no boundary test: all cells are ONE run with no tests (vectorised), which also
 writes into the ghost columns between rows (and rows between planes); each step first puts the
@@ -35,9 +36,26 @@ from ..vocabulary import helper
 ALIGN = 64          # bytes: a cache line, and one 8-wide vector of doubles
 
 
+@helper
+def row_width(cols):
+    """The extent of a padded row of a 2-D or 3-D lattice: cols and its two ghosts, rounded up to
+    a multiple of 8 doubles (a cache line) when that adds at most 1/16 more entries, so every row
+    of the run starts where the first does, on a line: a 100 × 100 sheet's run then takes 0.45
+    instead of 0.53 ns a cell (bare numba, median of 7); a 32 × 32 one (34 → 40) would lose more
+    to the 18 % more entries than it gains. The extra entries sit past the right ghost: the run
+    computes them from their neighbours and nothing reads them (a fixed sheet's stay 0)."""
+    width = cols + 2
+    extra = (8 - width % 8) % 8
+    return width + extra if 16 * extra <= width else width
+
+
 def padded(shape):
-    """The extents of a lattice's buffers: a ghost cell on each side of every axis."""
-    return tuple(int(s) + 2 for s in shape)
+    """The extents of a lattice's buffers: a ghost cell on each side of every axis (a 2-D or 3-D
+    lattice's rows rounded up to row_width)."""
+    extents = [int(s) + 2 for s in shape]
+    if len(extents) >= 2:
+        extents[-1] = row_width(int(shape[-1]))
+    return tuple(extents)
 
 
 def padded_index(shape, index):
@@ -113,7 +131,7 @@ def string_step(x, old, frc, drv, inv_mass, tension, damping, dt, fixed):
 def _sheet_ghosts(x, rows, cols, fixed):
     """A padded sheet's ghosts as the boundary has them: 0 (fixed), or the cell beside (free).
     The run wrote into the ghost columns; the ghost rows of a fixed sheet stay 0."""
-    width = cols + 2
+    width = row_width(cols)
     for r in range(1, rows + 1):
         i = r * width
         x[i] = 0.0 if fixed else x[i + 1]
@@ -139,7 +157,7 @@ def _sheet_run(up, mid, down, old, a, b):
 def sheet_step(x, old, frc, drv, rows, cols, inv_mass, tension, damping, dt, fixed):
     """The 2-D stencil over a padded rows × cols sheet: x[n+1] of every cell into `old`."""
     a, b, c = _coefficients(inv_mass, tension, damping, dt)
-    width = cols + 2
+    width = row_width(cols)
     lo, hi = width, (rows + 1) * width                  # rows 1 … rows, whole
     _sheet_ghosts(x, rows, cols, fixed)
     _aside(x, old, frc, drv, (width, 1), a, b, c, True)
@@ -151,7 +169,8 @@ def sheet_step(x, old, frc, drv, rows, cols, inv_mass, tension, damping, dt, fix
 def _cube_ghosts(x, planes, rows, cols, fixed):
     """A padded cube's ghosts as the boundary has them: 0 (fixed), or the cell beside (free).
     The run wrote into the ghost columns and the ghost rows of planes 1 … planes."""
-    width, area = cols + 2, (rows + 2) * (cols + 2)
+    width = row_width(cols)
+    area = (rows + 2) * width
     for p in range(1, planes + 1):
         base = p * area
         for col in range(width):                       # ghost rows 0 and rows + 1
@@ -183,7 +202,8 @@ def _cube_run(back, up, mid, down, front, old, a, b):
 def cube_step(x, old, frc, drv, planes, rows, cols, inv_mass, tension, damping, dt, fixed):
     """The 3-D stencil (the 7-point Laplacian) over a padded planes × rows × cols lattice."""
     a, b, c = _coefficients(inv_mass, tension, damping, dt)
-    width, area = cols + 2, (rows + 2) * (cols + 2)
+    width = row_width(cols)
+    area = (rows + 2) * width
     lo, hi = area + width, planes * area + (rows + 1) * width    # (1, 1, 0) … (planes, rows + 1, 0)
     _cube_ghosts(x, planes, rows, cols, fixed)
     _aside(x, old, frc, drv, (area, width, 1), a, b, c, True)

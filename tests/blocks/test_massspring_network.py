@@ -125,7 +125,7 @@ def test_a_link_block_that_is_not_a_link_is_named(write_patch, tmp_path):
     assert "subclasses Link" in str(err.value)
 
 
-@pytest.mark.parametrize("shape", [(30000,), (32, 32), (7,), (5, 6, 7), (1, 1)])
+@pytest.mark.parametrize("shape", [(30000,), (32, 32), (7,), (5, 6, 7), (1, 1), (100, 100), (3, 4, 37)])
 def test_a_stencils_first_cell_starts_a_cache_line(shape, write_patch):
     """A uniform lattice's two position buffers have their first cell (where each run's first
     load and store fall) on a 64-byte boundary (stencils.padded_zeros: 8-wide loads and stores
@@ -145,3 +145,8 @@ def test_a_stencils_first_cell_starts_a_cache_line(shape, write_patch):
     for buffer in (group.pos, group.prev):
         assert buffer.flags["C_CONTIGUOUS"] and buffer.size == stencils.padded_size(shape)
         assert (buffer.ctypes.data + 8 * first) % 64 == 0
+    width = stencils.padded(shape)[-1]
+    if len(shape) >= 2 and width != shape[-1] + 2:          # rows rounded up: each starts a line too
+        assert width % 8 == 0 and width - (shape[-1] + 2) <= width / 16
+        rows = [stencils.padded_index(shape, (0,) * (len(shape) - 2) + (r, 0)) for r in range(shape[-2])]
+        assert all((group.pos.ctypes.data + 8 * i) % 64 == 0 for i in rows)
