@@ -279,7 +279,7 @@ class _Composer:
                 cost += c
                 if isinstance(kev, yaml.AliasEvent) and isinstance(key, str):
                     pass
-                elif kev.tag is None or isinstance(kev, yaml.AliasEvent):
+                elif isinstance(kev, yaml.AliasEvent) or kev.tag is None:     # an alias has no tag
                     self.add(key_line, "a key must be a plain string")
                     key = None
                 else:

@@ -3,7 +3,7 @@ whose problems all read `FILE:LINE: message`."""
 import re
 
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from hapticgraph.graph.errors import PatchError
@@ -84,6 +84,8 @@ def test_damaged_documents(doc, tmp_path):
 @settings(max_examples=int(__import__("os").environ.get("FUZZ_EXAMPLES", "300")), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=st.text(alphabet=st.sampled_from(list("abxyz019:-[]{},.&*!|>'\"#\n \t<%@`?") + ["\u00e9", "\x00"]),
                     max_size=120))
+@example(text="*0:")                    # a key that is an undefined alias (it has no tag to read)
+@example(text="a: &x [1]\n*x : 2\n")   # a key that is an alias of a list
 def test_random_text(text, tmp_path):
     path = tmp_path / "fuzz.yaml"
     path.write_text("hapticgraph: 1\nblocks:\n" + text, encoding="utf-8")
