@@ -137,7 +137,6 @@ def _render_to(sink, patch, args, choices, replayed, stop):
         drivers = replayed if replayed is not None else open_drivers(patch, choices)
         streamed = stream(patch, args.seconds, sink, probes=args.probe, engine=args.engine,
                           progress=False if args.quiet else None, drivers=drivers, safety=True, stop=stop)
-        return streamed, None, None
     except (PlanError, DeviceError) as exc:
         sink.discard()
         raise UsageError(str(exc)) from None
@@ -157,3 +156,8 @@ def _render_to(sink, patch, args, choices, replayed, stop):
     except BaseException:                  # a bug: keep what was made, then let main report it
         sink.close()
         raise
+    try:
+        sink.drain()        # the sink's thread writes the last blocks: a failure there is told as any other
+    except OutputError as exc:
+        return streamed, None, str(exc)
+    return streamed, None, None
