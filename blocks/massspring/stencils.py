@@ -24,8 +24,8 @@ off by 1e-9 after 0.2 s, against 1e-11 here), at the same speed.
 Each step writes x[n+1] over x[n−1] (`old`) and the kernel then swaps the two buffers (the
 group's rotation, graph/family.py), so the positions `x` are x[n] whenever a block reads them,
 and a cell's velocity (x[n] − x[n−1])·fs is computed where it is read (a microphone, a probe, a
-coupling), not stored. Forces are read only at the driven cells (`drv`, padded indices): each
-one's x[n+1], its force included, is computed first into `frc`, and put in place after the run.
+coupling), not stored. Forces are read only at the driven cells (`drv`, padded indices): after
+the run, each one's x[n+1] gets its c·F[n] (`_drive`), which is the recurrence's last term.
 """
 import math
 
@@ -90,21 +90,16 @@ def _coefficients(inv_mass, tension, damping, dt):
 
 
 @helper
-def _aside(x, old, frc, drv, strides, a, b, c, before):
-    """The driven cells, whose force the run does not read. `before` the run: each one's
-    x[n+1] (its force included) into frc; after it: into old, frc cleared."""
-    k = 2.0 * len(strides)
+def _drive(old, frc, drv, c):
+    """The forces on the driven cells, after the run: each one's x[n+1] gets c·F[n], and its
+    force is cleared. The run computed x[n] + a·(x[n] − x[n−1]) + b·(Σ − 2D·x[n]) there as for
+    any cell, so adding c·F last is the recurrence term for term, in its order: the same bits
+    as computing the driven cell apart with its force (as this did before, at twice the cost
+    of a cell every sample)."""
     for j in range(drv.shape[0]):
         i = drv[j]
-        if before:
-            s = 0.0
-            for step in strides:
-                s += x[i - step] + x[i + step]
-            xi = x[i]
-            frc[i] = xi + a * (xi - old[i]) + b * (s - k * xi) + c * frc[i]
-        else:
-            old[i] = frc[i]
-            frc[i] = 0.0
+        old[i] = old[i] + c * frc[i]
+        frc[i] = 0.0
 
 
 @helper
@@ -122,9 +117,8 @@ def string_step(x, old, frc, drv, inv_mass, tension, damping, dt, fixed):
     a, b, c = _coefficients(inv_mass, tension, damping, dt)
     x[0] = 0.0 if fixed else x[1]
     x[n + 1] = 0.0 if fixed else x[n]
-    _aside(x, old, frc, drv, (1,), a, b, c, True)
     _line_run(x, old, a, b)
-    _aside(x, old, frc, drv, (1,), a, b, c, False)
+    _drive(old, frc, drv, c)
 
 
 @helper
@@ -160,9 +154,8 @@ def sheet_step(x, old, frc, drv, rows, cols, inv_mass, tension, damping, dt, fix
     width = row_width(cols)
     lo, hi = width, (rows + 1) * width                  # rows 1 … rows, whole
     _sheet_ghosts(x, rows, cols, fixed)
-    _aside(x, old, frc, drv, (width, 1), a, b, c, True)
     _sheet_run(x[lo - width:hi - width], x[lo:hi], x[lo + width:hi + width], old[lo:hi], a, b)
-    _aside(x, old, frc, drv, (width, 1), a, b, c, False)
+    _drive(old, frc, drv, c)
 
 
 @helper
@@ -206,7 +199,6 @@ def cube_step(x, old, frc, drv, planes, rows, cols, inv_mass, tension, damping, 
     area = (rows + 2) * width
     lo, hi = area + width, planes * area + (rows + 1) * width    # (1, 1, 0) … (planes, rows + 1, 0)
     _cube_ghosts(x, planes, rows, cols, fixed)
-    _aside(x, old, frc, drv, (area, width, 1), a, b, c, True)
     _cube_run(x[lo - area:hi - area], x[lo - width:hi - width], x[lo:hi], x[lo + width:hi + width],
               x[lo + area:hi + area], old[lo:hi], a, b)
-    _aside(x, old, frc, drv, (area, width, 1), a, b, c, False)
+    _drive(old, frc, drv, c)
