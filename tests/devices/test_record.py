@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from scipy.io import wavfile
 from audio_env import alsa_file_env, align, hapticgraph, jack_or_skip, read_raw
 from hapticgraph import load
 from hapticgraph.devices.record import FloatWav, Take, TakeError, replay_drivers, take_paths
+from hapticgraph.devices.replay import ReplayDriver
 from hapticgraph.graph.engine import render
 
 # a finger plucks a string through a plucker; the take holds the hand's trajectory
@@ -184,3 +186,15 @@ def test_take_with_a_torn_last_row_is_refused_with_the_fix(tmp_path, write_patch
     os.truncate(hg, whole)
     assert Take(hg).frames == 4410
     assert take_paths("a/b.hgrec") == ("a/b.hgrec", "a/b.wav") and take_paths("a/b") == ("a/b.hgrec", "a/b.wav")
+
+
+def test_a_replay_keeps_what_a_device_would_have_received():
+    """ReplayDriver.send: a value not finite is kept as 0, each one clamped to the device's
+    max_force, the caller's block left as it was."""
+    take = types.SimpleNamespace(inputs=np.zeros((4, 1)), rate=1000.0, model_of=lambda name, info: None)
+    driver = ReplayDriver("arm", take, {"columns": ["x"], "offset": 0, "max_force": 2.0})
+    block = np.array([np.nan, np.inf, -np.inf, 3.0, -5.0, 1.5, -0.0])
+    driver.send(0, block)
+    driver.send(7, np.array([0.25]))
+    np.testing.assert_array_equal(driver.force_sent(), [0.0, 0.0, 0.0, 2.0, -2.0, 1.5, 0.0, 0.25])
+    assert np.isnan(block[0]) and block[3] == 3.0
