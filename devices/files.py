@@ -164,9 +164,9 @@ class FileSink:
     kernel releases the GIL, and so do numpy's conversions and libsndfile's writes): a render's
     time is the larger of the two, not their sum. `write` hands over a copy of the block (the
     caller's view is valid only during the call) and waits only when PENDING blocks are still
-    unwritten, so memory stays PENDING + 1 blocks. A write that failed is raised (OutputError) by the
-    next `write`, or by `drain`; `close` drains first, so every block handed over before a stop,
-    a failure or an error is in the files."""
+    unwritten, so memory stays PENDING + 1 blocks. A write that failed is raised (OutputError) by
+    the next `write`, or by `drain`; `close` drains first, so every block handed over before a
+    stop, a failure or an error is in the files."""
 
     PENDING = 2
 
@@ -191,7 +191,7 @@ class FileSink:
 
     def write(self, block):
         while self._pending and (self._pending[0].done() or len(self._pending) >= self.PENDING):
-            self._settle(self._pending.popleft())
+            self._pending.popleft().result()      # a failed write is in _failure; a bug is raised
         self._raise_failure()
         self._pending.append(self._writer.submit(self._write_now, self._copy(block)))
 
@@ -212,17 +212,13 @@ class FileSink:
     def drain(self):
         """Wait until every block handed over is written; OutputError if one could not be."""
         while self._pending:
-            self._settle(self._pending.popleft())
+            self._pending.popleft().result()
         self._raise_failure()
 
     def _raise_failure(self):
         if self._failure is not None:
             self._told = True
             raise OutputError(self._failure)
-
-    @staticmethod
-    def _settle(future):
-        future.result()                       # a failure is in self._failure; anything else is raised
 
     def _write_now(self, block):
         """One block into the files (in the writer thread); a failure's message goes to _failure."""

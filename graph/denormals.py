@@ -8,8 +8,8 @@ collapses (benchmarks/realtime.py). Audio software turns the processor's flush-t
 denormals-are-zero modes on around its processing (SuperCollider's and JUCE's audio threads,
 Faust's `-ftz`); so do we: `FlushToZero` is entered by the reference interpreter's `run`
 (graph/interpreter.py) and the compiled and ahead-of-time kernels do the same around their
-sample loop (graph/fpenv.py); both put the caller's mode back when the run returns, so nothing outside a kernel (numpy,
-scipy, the caller's own arithmetic) sees the change.
+sample loop (graph/fpenv.py); both put the caller's mode back when the run returns, so nothing
+outside a kernel (numpy, scipy, the caller's own arithmetic) sees the change.
 
 The mode is the processor's, so the interpreter's Python floats and the kernel's machine code
 round alike and the engines still agree bit for bit. A result differs from strict IEEE only
@@ -78,18 +78,13 @@ class FlushToZero:
         self._saved = _Env()
         self._ref = ctypes.byref(self._saved)
 
-    if SUPPORTED:
-        def __enter__(self, _get=_LIBM.fegetenv, _set=_LIBM.fesetenv, _flushing=_FLUSHING):
-            _get(self._ref)
-            _set(_flushing)
-            return self
+    def __enter__(self):
+        if SUPPORTED:
+            _LIBM.fegetenv(self._ref)
+            _LIBM.fesetenv(_FLUSHING)
+        return self
 
-        def __exit__(self, kind, value, tb, _set=_LIBM.fesetenv):
-            _set(self._ref)
-            return False
-    else:
-        def __enter__(self):
-            return self
-
-        def __exit__(self, kind, value, tb):
-            return False
+    def __exit__(self, kind, value, tb):
+        if SUPPORTED:
+            _LIBM.fesetenv(self._ref)
+        return False
