@@ -117,14 +117,15 @@ def open_page(driver, url, deadline_s=60):
 
 
 def until(check, deadline_s, what):
-    """Polls `check` until it is true; fails naming `what` at the deadline."""
+    """Polls `check` until it is true; fails naming `what` at the deadline (`what` may be a
+    callable, asked then: what the page shows at that moment)."""
     end = time.monotonic() + deadline_s
     while time.monotonic() < end:
         value = check()
         if value:
             return value
         time.sleep(0.1)
-    raise AssertionError(f"{what} (waited {deadline_s} s)")
+    raise AssertionError(f"{what() if callable(what) else what} (waited {deadline_s} s)")
 
 
 def send(driver, command):

@@ -64,20 +64,54 @@ def test_page_draws_the_running_instrument(sheet_patch, tmp_path):
     assert statistics.median(readings) >= FPS_FLOOR, readings
 
 
+def _numbers(value):
+    """The numbers in a nested list of script results, flat (booleans left out)."""
+    if isinstance(value, list):
+        return [x for v in value for x in _numbers(v)]
+    return [] if isinstance(value, bool) else [value]
+
+
+def _steady(driver, script, *args, ok=lambda value: True):
+    """The value of `script` once the view has settled: within 2 px on three reads 0.2 s apart
+    (the cells move as the sheet sounds) and `ok`. The side panels fill in after the page is ready
+    and may narrow the canvas, which moves every cell."""
+    seen = []
+    end = time.monotonic() + 30
+    while True:
+        seen.append(driver.execute_script(script, *args))
+        last = [_numbers(v) for v in seen[-3:]]
+        if len(last) == 3 and ok(seen[-1]) and all(
+                max(abs(a - b) for a, b in zip(last[0], other)) <= 2 for other in last[1:]):
+            return seen[-1]
+        assert time.monotonic() < end, f"the view did not settle: last reads {seen[-3:]}"
+        time.sleep(0.2)
+
+
 def _place_by_click(driver, block, cell_index):
-    """Chooses the microphone tool and `block`, then clicks the cell where the page draws it."""
+    """Chooses the microphone tool and `block`, then clicks the cell where the page draws it,
+    once the view has settled and the page's own picking finds the cell there."""
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.support.ui import Select
 
     Select(driver.find_element("css selector", "#tool")).select_by_value("mic")
     Select(driver.find_element("css selector", "#place-which")).select_by_value(block)
     canvas = driver.find_element("css selector", "#view")
-    spot = driver.execute_script(
+    x, y, _ = _steady(driver, (
         "const v = window.studio.view, l = window.studio.desc.lattices[0];"
         "const flat = arguments[0].reduce((a, i, k) => a * l.shape[k] + i, 0);"
         "const p = v.screenOf(l.id, flat), r = v.canvas.getBoundingClientRect();"
-        "return [p.x - r.left - r.width / 2, p.y - r.top - r.height / 2];", cell_index)
-    ActionChains(driver).move_to_element_with_offset(canvas, round(spot[0]), round(spot[1])).click().perform()
+        "const hit = v.pick(p.x, p.y);"
+        "return [Math.round(p.x - r.left - r.width / 2), Math.round(p.y - r.top - r.height / 2),"
+        "        hit !== null && hit.lattice === l.id && hit.flat === flat];"), cell_index, ok=lambda v: v[2])
+    ActionChains(driver).move_to_element_with_offset(canvas, x, y).click().perform()
+
+
+def _where_is(driver, block):
+    """The cell the page shows `block` on, and the error it shows (for a failure's message)."""
+    return driver.execute_script(
+        "const m = window.studio.desc.microphones.find(m => m.block === arguments[0]);"
+        "const e = document.querySelector('#error');"
+        "return [m ? m.cell : null, e && !e.hidden ? e.textContent : ''];", block)
 
 
 def test_a_click_on_a_cell_moves_the_microphone_into_the_saved_patch_and_the_sound(sheet_patch, tmp_path):
@@ -88,9 +122,9 @@ def test_a_click_on_a_cell_moves_the_microphone_into_the_saved_patch_and_the_sou
     with studio(sheet_patch, out) as url, chromium(out) as driver:
         open_page(driver, url)
         _place_by_click(driver, "mic1", [2, 3])
-        until(lambda: driver.execute_script(
-            "return window.studio.desc.microphones.find(m => m.block === 'mic1').cell") == "sheet[2, 3]",
-            120, "mic1 did not move to the clicked cell")   # a swap: a new kernel compiles first
+        # a swap: a new kernel compiles first
+        until(lambda: _where_is(driver, "mic1")[0] == "sheet[2, 3]", 120,
+              lambda: f"mic1 did not move to the clicked cell: (cell, error) = {_where_is(driver, 'mic1')}")
         driver.save_screenshot(str(out / "studio_mic_moved.png"))
         driver.find_element("css selector", "#save").click()
         until(lambda: driver.find_element("css selector", "#save-dialog").is_displayed(), 20, "no save dialog")
@@ -190,10 +224,10 @@ def test_box_select_lock_cut_undo_and_a_mode_shape(sheet_patch, tmp_path):
     with studio(sheet_patch, out) as url, chromium(out) as driver:
         open_page(driver, url)
         Select(driver.find_element("css selector", "#look")).select_by_value("top")   # rows and columns on screen axes
-        corners = driver.execute_script(
+        corners = _steady(driver,
             "const v = window.studio.view, r = v.canvas.getBoundingClientRect();"
             "return [[0, 0], [2, 3], [0, 1]].map(([i, j]) => v.screenOf(0, i * 16 + j))"
-            ".map((p) => [p.x - r.left - r.width / 2, p.y - r.top - r.height / 2]);")
+            ".map((p) => [Math.round(p.x - r.left - r.width / 2), Math.round(p.y - r.top - r.height / 2)]);")
         (x0, y0), (x1, y1), (xn, yn) = corners
         # the box's edges halfway to the next row and column: the cells may move a few pixels
         pad = 0.5 * ((xn - x0) ** 2 + (yn - y0) ** 2) ** 0.5
@@ -238,9 +272,8 @@ def test_a_microphone_placed_inside_a_block(tmp_path):
         assert driver.execute_script("return window.studio.view.parts[0].kind") == "block"
         Select(driver.find_element("css selector", "#layer")).select_by_visible_text("blk[2, :, :]")
         _place_by_click(driver, "mic2", [2, 3, 4])
-        until(lambda: driver.execute_script(
-            "return window.studio.desc.microphones.find(m => m.block === 'mic2').cell") == "blk[2, 3, 4]",
-            120, "mic2 did not move to the inner cell clicked")
+        until(lambda: _where_is(driver, "mic2")[0] == "blk[2, 3, 4]", 120,
+              lambda: f"mic2 did not move to the inner cell clicked: (cell, error) = {_where_is(driver, 'mic2')}")
         driver.save_screenshot(str(out / "studio_block_layer.png"))
         text = send(driver, {"cmd": "state"})["result"]["text"]
     assert "  - blk[2, 3, 4].velocity -> mic2.in\n" in text
