@@ -105,9 +105,10 @@ def file_digest(path):
     return h.hexdigest()
 
 
-def kernel_key(source, fns, plugin_files=()):
+def kernel_key(source, fns, files=()):
     """The hash that names a kernel's cache entry: its source, the host, the files of `fns` (the
-    functions it calls, and the code generator's `jit`) and the plugin files the patch loaded."""
+    functions it calls, and the code generator's `jit`) and `files` (the plugin files the patch
+    loaded, the modules the source imports for itself: graph/codegen.support_files)."""
     h = hashlib.sha256()
 
     def add(text):
@@ -116,9 +117,9 @@ def kernel_key(source, fns, plugin_files=()):
     add("hapticgraph kernel 3")
     add(source)
     add(host_id())
-    files, anonymous = reachable_files(fns)
-    files |= {os.path.realpath(p) for p in plugin_files}
-    for path in sorted(files):
+    reached, anonymous = reachable_files(fns)
+    reached |= {os.path.realpath(p) for p in files}
+    for path in sorted(reached):
         add(path)
         try:
             add(file_digest(path))

@@ -10,6 +10,8 @@ values that are structure are literals, each with its name beside it; buffers ar
 rings indexed through the shared counter `t`. What may reach the text at all (identifiers,
 literals, comments) is graph/identifiers.py's business.
 """
+import importlib.util
+
 from . import denormals
 from .identifiers import KernelSourceError, comment, dotted, ident, note
 from .ir import Literal
@@ -18,6 +20,15 @@ from .ir import Literal
 JIT_MODULE = "hapticgraph.graph.jit"
 FPENV_MODULE = "hapticgraph.graph.fpenv"
 FLUSHES = denormals.SUPPORTED       # the kernel flushes subnormals where the interpreter does
+
+
+def support_files():
+    """The files of the modules the generated source imports for itself, besides the functions it
+    calls (the JIT backend; graph/fpenv.py's intrinsics where it flushes): the machine code depends
+    on them, so the cache key hashes them (graph/cachekey.py). Found, not imported (a warm start
+    does not start numba)."""
+    modules = (JIT_MODULE, FPENV_MODULE) if FLUSHES else (JIT_MODULE,)
+    return [importlib.util.find_spec(m).origin for m in modules]
 
 
 class Emitter:

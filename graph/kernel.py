@@ -14,7 +14,7 @@ import numpy as np
 from . import aot
 from .aot import AotBackend
 from .cachekey import kernel_key
-from .codegen import generate
+from .codegen import generate, support_files
 from .helper_cache import settle as settle_helpers
 from .identifiers import note
 from .jit import JitBackend, KernelCode, jit
@@ -96,7 +96,7 @@ class CompiledKernel:
         self.prog = prog
         source, fns = generate(prog)
         self.source = source
-        self.key = kernel_key(source, list(fns) + [jit], prog.patch.registry.plugin_files)
+        self.key = kernel_key(source, list(fns) + [jit], [*prog.patch.registry.plugin_files, *support_files()])
         self.extra = tuple(prog.buffers) + tuple(prog.arrays)
 
         def warm(fn):

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 import hapticgraph
-from hapticgraph.graph import denormals
+from hapticgraph.graph import codegen, denormals, fpenv
+from hapticgraph.graph.cachekey import kernel_key
 from hapticgraph.graph.patch import load
 
 pytestmark = pytest.mark.skipif(not denormals.SUPPORTED, reason="flush-to-zero is set on x86-64 Linux only")
@@ -81,3 +82,15 @@ def test_a_decayed_sheet_rests_at_zero_in_both_engines(write_patch):
     assert quiet < len(x) - 1000                                            # then rests at 0
     nonzero = np.abs(x[x != 0.0])
     assert np.all(nonzero >= SMALLEST_NORMAL)                               # never subnormal
+
+
+def test_the_cache_key_holds_the_flush_intrinsics_file(tmp_path):
+    """The kernel imports graph/fpenv.py's intrinsics by name, so their file is part of what its
+    machine code depends on: a kernel key changes with that file's content."""
+    files = codegen.support_files()
+    assert fpenv.__file__ in files
+    copy = tmp_path / "fpenv.py"
+    copy.write_bytes(open(fpenv.__file__, "rb").read())
+    before = kernel_key("source", [], [copy])
+    copy.write_bytes(copy.read_bytes() + b"\n# changed\n")
+    assert kernel_key("source", [], [copy]) != before
