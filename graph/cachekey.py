@@ -10,6 +10,11 @@ from importlib import metadata
 
 from .numba_start import WIDE_VECTORS
 
+# numba's settings that change the machine code it makes (numba's own cache index does not name
+# the optimisation ones): a kernel or helper compiled under one is not the code of another
+CODEGEN_SETTINGS = ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "NUMBA_OPT", "NUMBA_LOOP_VECTORIZE",
+                    "NUMBA_SLP_VECTORIZE", "NUMBA_ENABLE_AVX", "NUMBA_BOUNDSCHECK")
+
 _SKIP_TOP = {"numpy", "numba", "llvmlite", "builtins"} | set(getattr(sys, "stdlib_module_names", ()))
 _host = []
 # the lines of /proc/cpuinfo that say which instructions the machine code may use
@@ -42,14 +47,14 @@ def dist_version(dist):
 
 
 def host_id():
-    """Versions and the CPU the machine code is made for, told without importing numba (a warm
-    start loads an extension module and never imports it: graph/aot.py)."""
+    """Versions, the CPU the machine code is made for and numba's code-generation settings
+    (CODEGEN_SETTINGS), told without importing numba (a warm start loads an extension module and
+    never imports it: graph/aot.py)."""
     if not _host:
         import numpy
         _host.append("\0".join([dist_version("numba"), dist_version("llvmlite"), numpy.__version__, sys.version,
                                 sys.implementation.cache_tag or "", platform.machine(), _cpu(),
-                                os.environ.get("NUMBA_CPU_NAME", ""), os.environ.get("NUMBA_CPU_FEATURES", ""),
-                                WIDE_VECTORS]))
+                                *(os.environ.get(name, "") for name in CODEGEN_SETTINGS), WIDE_VECTORS]))
     return _host[0]
 
 

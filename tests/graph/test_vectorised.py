@@ -91,10 +91,16 @@ def test_each_stencils_interior_loop_is_vectorised(name, dims):
         assert report["asm"][loop["function"]]["width"] >= 2, VEC.show(report)
 
 
-def test_a_kernel_compiled_without_the_loop_vectoriser_fails_the_check():
-    env = {**os.environ, "NUMBA_LOOP_VECTORIZE": "0"}
-    proc = subprocess.run([sys.executable, str(TOOL), str(ROOT / "benchmarks" / "sheet_32.yaml")],
-                          capture_output=True, text=True, env=env, timeout=600)
+def test_a_kernel_compiled_without_the_loop_vectoriser_fails_the_check(tmp_path):
+    """The helpers' machine code a vectorising run left in the shared cache is not used by a run
+    that turned the vectoriser off (the cache key names numba's code-generation settings)."""
+    def check(**settings):
+        env = {**os.environ, "HAPTICGRAPH_SHARED_CACHE": str(tmp_path / "shared"), **settings}
+        return subprocess.run([sys.executable, str(TOOL), str(ROOT / "benchmarks" / "sheet_32.yaml")],
+                              capture_output=True, text=True, env=env, timeout=600)
+    first = check()
+    assert first.returncode == 0, first.stdout + first.stderr
+    proc = check(NUMBA_LOOP_VECTORIZE="0")
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "interior loop NOT VECTORISED" in proc.stdout
 
