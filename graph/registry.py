@@ -24,6 +24,7 @@ import importlib
 import importlib.util
 import os
 import sys
+import threading
 import traceback
 from types import ModuleType
 
@@ -152,8 +153,18 @@ def import_file(path):
     """Import a plugin file under a stable module name, so generated kernels can import it too.
 
     The name holds only [A-Za-z0-9_]. A file already imported is imported again when its content
-    changed (an edited plugin is never served stale, e.g. by `play --watch`).
+    changed (an edited plugin is never served stale, e.g. by `play --watch`). One thread imports
+    at a time: the module is in sys.modules while its file runs, and another thread (a Dask worker
+    of two threads loading the same patch) must not take it half made.
     """
+    with _IMPORTING:
+        return _import_file(path)
+
+
+_IMPORTING = threading.RLock()      # a plugin's file may load another (RLock: the same thread again)
+
+
+def _import_file(path):
     path = os.path.realpath(path)
     stem = os.path.splitext(os.path.basename(path))[0]
     digest = hashlib.sha1(path.encode("utf-8", "surrogatepass")).hexdigest()[:10]

@@ -1,7 +1,8 @@
 """Sweeps on Dask: every variant of a sweep file rendered by the workers of a Dask cluster (a local
 one by default: one worker process per core), each result written by this client alone, as it
 arrives, into the results folder (sweep_manifest). A fault is a row, never the end of the sweep:
-a variant whose worker dies (SIGKILL, out of memory) is retried once on another, then `killed`.
+a variant whose worker dies (SIGKILL, out of memory) is retried once on another, then once more
+alone, then `killed`.
 
     rows = hapticgraph.sweep("timbre.yaml", "out/")          # a local cluster
     rows = hapticgraph.sweep(spec, "out/", client=client)    # a cluster of yours
@@ -19,6 +20,13 @@ from .sweep_spec import SweepSpec, load_spec
 from .sweep_worker import render_variant
 
 ALLOWED_FAILURES = 1        # a task whose worker died is run once more, then reported `killed`
+# The scheduler of a cluster the sweep starts. A worker's death counts against every task the
+# scheduler had sent it, not only the one it was running; where the scheduler queues tasks (a
+# sweep of more variants than twice the threads), one task a thread (a saturation of 1.0, not
+# Dask's 1.1, which sends a one-thread worker a second one) sends no good variant behind a
+# crashing one. What is sent anyway is sorted out by submit_all.
+SCHEDULER_SETTINGS = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+                      "distributed.scheduler.worker-saturation": 1.0}
 
 
 def sweep(spec_or_path, out, client=None, workers=None, scheduler=None, scheduler_file=None, resume=False,
@@ -73,7 +81,7 @@ def connect(client=None, workers=None, scheduler=None, scheduler_file=None):
         return
     n = int(workers or os.cpu_count() or 1)
     dashboard = "127.0.0.1:0" if importlib.util.find_spec("bokeh") is not None else None
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+    with dask.config.set(SCHEDULER_SETTINGS):
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=dashboard, silence_logs=logging.ERROR)
     try:
@@ -127,23 +135,42 @@ def submit_all(client, spec, todo, manifest, progress=None, score=None, tally=No
     new) with `rows`, {variant id: row}. `score`: a fit's scorer, whose columns join each row.
 
     The patch's files go with each task rather than scattered once: data scattered to workers is
-    lost for good when they die, and a sweep outlives its workers."""
+    lost for good when they die, and a sweep outlives its workers.
+
+    Dask counts a worker's death against every task it had been sent, not only the one it was
+    rendering, so a good variant sent behind one that kills its worker may come back `killed`
+    too. A variant that comes back `killed` is therefore tried once more alone, once the others
+    are done, and only its own death there makes its row `killed`."""
     from distributed import as_completed
     tally = tally or Tally()
     token = uuid.uuid4().hex[:8]
-    futures = {client.submit(render_variant, spec.bundle, _job(spec, v), score,
-                             key=f"hapticgraph-variant-{v.id}-{token}", pure=False): v for v in todo}
+
+    def submit(variant, alone=""):
+        return client.submit(render_variant, spec.bundle, _job(spec, variant), score,
+                             key=f"hapticgraph-variant-{variant.id}-{token}{alone}", pure=False)
+    futures = {submit(v): v for v in todo}
     bar = _bar(len(todo), progress)
+    suspects = []
+
+    def take(future):
+        variant = futures.pop(future)
+        row, audio = _outcome(future, variant)
+        future.release()
+        if row["status"] == "killed" and variant not in suspects:
+            suspects.append(variant)
+            return
+        manifest.write(variant, row, audio)
+        tally.add(row)
+        tally.rows[variant.id] = row
+        bar.update(1)
+        bar.set_postfix(failed=tally.failed, refresh=False)
     try:
         for future in as_completed(futures):
-            variant = futures.pop(future)
-            row, audio = _outcome(future, variant)
-            manifest.write(variant, row, audio)
-            tally.add(row)
-            tally.rows[variant.id] = row
-            bar.update(1)
-            bar.set_postfix(failed=tally.failed, refresh=False)
-            future.release()
+            take(future)
+        for variant in list(suspects):
+            future = submit(variant, "-alone")
+            futures[future] = variant
+            take(future)
     finally:
         bar.close()
         if futures:
@@ -157,8 +184,8 @@ def _outcome(future, variant):
     try:
         return future.result()
     except KilledWorker as exc:
-        return _row(variant, "killed", "its worker died while rendering it, each time it was tried "
-                                       f"({type(exc).__name__}: {exc})"), None
+        return _row(variant, "killed", "its worker died while rendering it, each time it was tried, "
+                                       f"the last time alone ({type(exc).__name__}: {exc})"), None
     except Exception as exc:  # noqa: BLE001 - lost by the cluster (cancelled, scheduler gone): a row
         return _row(variant, "error", f"{type(exc).__name__}: {exc}"), None
 
@@ -189,4 +216,4 @@ def _bar(total, enabled=None):
     return tqdm(total=total, desc="sweep", unit=" variant", file=sys.stderr, dynamic_ncols=True)
 
 
-__all__ = ["sweep", "connect", "submit_all", "Tally", "SweepError", "ALLOWED_FAILURES"]
+__all__ = ["sweep", "connect", "submit_all", "Tally", "SweepError", "ALLOWED_FAILURES", "SCHEDULER_SETTINGS"]

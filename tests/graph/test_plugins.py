@@ -2,6 +2,7 @@
 entry point in the `hapticgraph.blocks` group. A plugin block compiles like a built-in one."""
 import math
 import shutil
+import threading
 
 import numpy as np
 
@@ -10,7 +11,7 @@ from hapticgraph import render
 from hapticgraph.graph.kernel import CompiledKernel
 from hapticgraph.graph.patch import load
 from hapticgraph.graph.program import Program
-from hapticgraph.graph.registry import Registry
+from hapticgraph.graph.registry import Registry, block_types_in, import_file
 
 EXAMPLES = ROOT / "examples"
 
@@ -113,3 +114,39 @@ def test_entry_point_that_exits_is_a_warning_not_an_exit(tmp_path, monkeypatch, 
     registry = Registry()
     assert "gain" in registry.types
     assert "plugin entry point 'leaver' failed to load: SystemExit: 0" in capsys.readouterr().err
+
+
+SLOW_PLUGIN = """
+import time
+
+from hapticgraph.blocks import Block, In, Out
+
+time.sleep(0.3)          # a plugin that takes a while to import
+
+
+class Slow(Block, name="slow_gain"):
+    x = In(name="in")
+    y = Out(name="out")
+
+    @staticmethod
+    def output(x):
+        return x
+"""
+
+
+def test_two_threads_importing_one_plugin_both_get_its_types(tmp_path):
+    """A Dask worker of two threads loads the same patch twice at once: neither thread may take the
+    module while the other is still running its file (it had no block types yet)."""
+    path = tmp_path / "slow.py"
+    path.write_text(SLOW_PLUGIN)
+    found, start = [], threading.Barrier(2)
+
+    def load_it():
+        start.wait()
+        found.append([cls.type_name for cls in block_types_in(import_file(str(path)))])
+    threads = [threading.Thread(target=load_it) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(10)
+    assert found == [["slow_gain"], ["slow_gain"]]

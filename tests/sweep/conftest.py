@@ -9,8 +9,8 @@ import pytest
 def dask_client():
     import dask
     from distributed import Client, LocalCluster
-    from hapticgraph.sweeps import ALLOWED_FAILURES
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+    from hapticgraph.sweeps import SCHEDULER_SETTINGS
+    with dask.config.set(SCHEDULER_SETTINGS):
         cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=None, silence_logs=logging.ERROR)
     try:

@@ -4,14 +4,20 @@
 (issue 23, item 10). Every process started here is stopped by its PID."""
 import csv
 import os
+import pathlib
 import subprocess
 import sys
 import time
 
+import dask
 import numpy as np
 import soundfile
 
 from sweeps_env import karplus, write
+
+from hapticgraph.sweeps import SCHEDULER_SETTINGS
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 SWEEP = """
     sweep: 1
@@ -24,6 +30,19 @@ SWEEP = """
     features: [f0, t60, rms, peak]
     audio: wav
     """
+
+
+# hapticgraph.sweeps.SCHEDULER_SETTINGS as environment variables of a `dask scheduler` (the README's)
+SCHEDULER_ENV = {"DASK_" + key.upper().replace(".", "__").replace("-", "_"): str(value)
+                 for key, value in SCHEDULER_SETTINGS.items()}
+
+
+def test_the_readme_gives_a_scheduler_the_settings_of_a_sweeps_own_cluster():
+    readme = (ROOT / "README.md").read_text()
+    assert all(f"{name}={value}" in readme for name, value in SCHEDULER_ENV.items()), SCHEDULER_ENV
+    parsed = dask.config.collect(paths=[], env=SCHEDULER_ENV)
+    for key, value in SCHEDULER_SETTINGS.items():
+        assert dask.config.get(key, config=parsed) == value
 
 
 def _env(**more):
@@ -76,7 +95,7 @@ def test_loopback_cluster_local_cluster_and_single_runs_agree_bit_for_bit(tmp_pa
     log = open(tmp_path / "dask.log", "wb")
     try:
         procs.append(_start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                             "--scheduler-file", str(scheduler_file)], _env(), log))
+                             "--scheduler-file", str(scheduler_file)], _env(**SCHEDULER_ENV), log))
         _wait_for(scheduler_file, procs)
         for i in range(2):
             procs.append(_start(["worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
