@@ -13,8 +13,9 @@ import dask
 import numpy as np
 import soundfile
 
-from sweeps_env import karplus, write
+from sweeps_env import crash_patch, karplus, write
 
+import hapticgraph
 from hapticgraph.sweeps import SCHEDULER_SETTINGS
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -128,3 +129,38 @@ def test_loopback_cluster_local_cluster_and_single_runs_agree_bit_for_bit(tmp_pa
         swept, _ = soundfile.read(tmp_path / "cluster" / row["audio"], dtype="float32")
         alone, _ = soundfile.read(single, dtype="float32")
         assert swept.shape == alone.shape and np.array_equal(swept.view(np.uint32), alone.view(np.uint32))
+
+
+def test_a_good_variant_beside_one_that_kills_the_worker_is_not_killed(tmp_path):
+    """A scheduler with the README's settings and one worker of two threads: a long render and one
+    that kills the process as it is built run at once, so each death counts against both and Dask
+    reports both KilledWorker. The good one, tried alone, comes back ok; the crashing one alone
+    dies again: `killed`. (Without the try alone, both rows were `killed`.)"""
+    crash_patch(tmp_path)
+    sweep = write(tmp_path, "crash_sweep.yaml", """
+        sweep: 1
+        patch: crash.yaml
+        seconds: 60
+        axes:
+          boom.die: [1.0, 0.0]
+        features: [rms]
+        audio: none
+        """)
+    scheduler_file = tmp_path / "scheduler.json"
+    procs = []
+    log = open(tmp_path / "dask.log", "wb")
+    try:
+        procs.append(_start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                             "--scheduler-file", str(scheduler_file)], _env(**SCHEDULER_ENV), log))
+        _wait_for(scheduler_file, procs)
+        procs.append(_start(["worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
+                             "--nthreads", "2", "--nworkers", "1", "--no-dashboard"], _env(), log))
+        table = hapticgraph.sweep(sweep, tmp_path / "out", scheduler_file=str(scheduler_file),
+                                  report=lambda text: None, progress=False)
+    finally:
+        _stop(procs)
+        log.close()
+    status = {row["boom.die"]: row["status"] for _, row in table.iterrows()}
+    assert status == {1.0: "killed", 0.0: "ok"}, table[["boom.die", "status", "error"]].to_dict("records")
+    with open(tmp_path / "out" / "manifest.csv", newline="") as f:
+        assert len(list(csv.DictReader(f))) == 2               # one row each: a suspect is written once

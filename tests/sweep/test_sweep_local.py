@@ -2,7 +2,6 @@
 (a runaway, a worker killed in the middle of a variant, a timeout), one kernel per structure per
 worker, resume after --limit. Every test is bounded by the sizes of its sweeps."""
 import csv
-import logging
 import math
 import os
 import signal
@@ -108,38 +107,6 @@ def test_a_worker_killed_by_its_variant_is_a_killed_row_and_the_rest_go_on(tmp_p
     assert "died" in by_die[1.0][0]["error"]
     assert [r["status"] for r in by_die[0.0]] == ["ok", "ok"]
     dask_client.wait_for_workers(2, timeout=120)
-
-
-def test_a_good_variant_sent_to_the_worker_a_crash_kills_is_not_killed(tmp_path):
-    """One worker of two threads, two variants: both run on it at once (a long render beside one
-    that kills the process as it is built), so each death of the worker counts against both and
-    Dask reports both KilledWorker; the good one, tried alone, comes back ok, the crashing one
-    alone dies again: `killed`. (Without the try alone, both rows were `killed`.)"""
-    import dask
-    from distributed import Client, LocalCluster
-    from hapticgraph.sweeps import SCHEDULER_SETTINGS
-
-    crash_patch(tmp_path)
-    sweep = write(tmp_path, "s.yaml", """
-        sweep: 1
-        patch: crash.yaml
-        seconds: 60
-        axes:
-          boom.die: [1.0, 0.0]
-        features: [rms]
-        audio: none
-        """)
-    with dask.config.set(SCHEDULER_SETTINGS):
-        cluster = LocalCluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=logging.ERROR)
-    try:
-        with Client(cluster) as client:
-            table = hapticgraph.sweep(sweep, tmp_path / "out", client=client, report=lambda t: None)
-    finally:
-        cluster.close(timeout=60)
-    status = {row["boom.die"]: row["status"] for _, row in table.iterrows()}
-    assert status == {1.0: "killed", 0.0: "ok"}
-    assert len(_rows(tmp_path / "out")) == 2                # one row each: a suspect is written once
 
 
 def test_sigkill_of_a_worker_mid_sweep_loses_no_variant(tmp_path, dask_client):
