@@ -2,6 +2,7 @@
 repository; the example plugin package installs beside it and registers by entry point."""
 import json
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -22,8 +23,13 @@ def _run(cmd, **kw):
 def fresh_env(tmp_path_factory):
     base = tmp_path_factory.mktemp("wheel")
     wheels = base / "wheels"
+    # built from a copy: setuptools builds in the source tree (build/, *.egg-info), and nothing is
+    # written into the repository (nor read from what an earlier build left there)
+    source = base / "source"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(
+        ".git", ".venv", "build", "*.egg-info", "__pycache__", ".hypothesis", ".pytest_cache", ".import_linter_cache"))
     _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(wheels),
-          str(ROOT), str(ROOT / "examples" / "hapticgraph-example-plugin")])
+          str(source), str(source / "examples" / "hapticgraph-example-plugin")])
     env_dir = base / "env"
     venv.EnvBuilder(with_pip=True).create(env_dir)
     py = env_dir / ("Scripts" if os.name == "nt" else "bin") / "python"
