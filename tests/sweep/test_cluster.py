@@ -2,6 +2,7 @@
 127.0.0.1, each with its own kernel cache folder — as on the local cluster and as single
 `hapticgraph run --set …` renders: the same manifest values and the same audio, bit for bit
 (issue 23, item 10). Every process started here is stopped by its PID."""
+import contextlib
 import csv
 import os
 import pathlib
@@ -76,6 +77,27 @@ def _wait_for(path, procs, seconds=90):
         time.sleep(0.2)
 
 
+@contextlib.contextmanager
+def _loopback_cluster(tmp_path, workers):
+    """A `dask scheduler` with the README's settings and a `dask worker` per entry of `workers`
+    ((threads, environment it adds)) on 127.0.0.1: the scheduler file. Every process is stopped
+    by its PID however the block ends."""
+    scheduler_file = tmp_path / "scheduler.json"
+    procs = []
+    with open(tmp_path / "dask.log", "wb") as log:
+        try:
+            procs.append(_start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                 "--scheduler-file", str(scheduler_file)], _env(**SCHEDULER_ENV), log))
+            _wait_for(scheduler_file, procs)
+            for i, (threads, more) in enumerate(workers):
+                procs.append(_start(["worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
+                                     "--nthreads", str(threads), "--nworkers", "1", "--no-dashboard", "--name", f"w{i}"],
+                                    _env(**more), log))
+            yield scheduler_file
+        finally:
+            _stop(procs)
+
+
 def _sweep(args, tmp_path, env):
     done = subprocess.run([sys.executable, "-m", "hapticgraph", "sweep", str(tmp_path / "s.yaml"), "--quiet", *args],
                           env=env, capture_output=True, text=True, timeout=600)
@@ -91,22 +113,10 @@ def _manifest(folder):
 def test_loopback_cluster_local_cluster_and_single_runs_agree_bit_for_bit(tmp_path):
     karplus(tmp_path)
     write(tmp_path, "s.yaml", SWEEP)
-    scheduler_file = tmp_path / "scheduler.json"
-    procs = []
-    log = open(tmp_path / "dask.log", "wb")
-    try:
-        procs.append(_start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                             "--scheduler-file", str(scheduler_file)], _env(**SCHEDULER_ENV), log))
-        _wait_for(scheduler_file, procs)
-        for i in range(2):
-            procs.append(_start(["worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
-                                 "--nthreads", "1", "--nworkers", "1", "--no-dashboard", "--name", f"w{i}"],
-                                _env(HAPTICGRAPH_CACHE=str(tmp_path / f"cache{i}")), log))
+    workers = [(1, {"HAPTICGRAPH_CACHE": str(tmp_path / f"cache{i}")}) for i in range(2)]
+    with _loopback_cluster(tmp_path, workers) as scheduler_file:
         note = _sweep(["--out", str(tmp_path / "cluster"), "--scheduler-file", str(scheduler_file)], tmp_path, _env())
-        assert "4 ok" in note
-    finally:
-        _stop(procs)
-        log.close()
+    assert "4 ok" in note
     _sweep(["--out", str(tmp_path / "local"), "--workers", "2"], tmp_path, _env())
     cluster, local = _manifest(tmp_path / "cluster"), _manifest(tmp_path / "local")
     assert sorted(cluster) == sorted(local) and len(cluster) == 4
@@ -146,20 +156,9 @@ def test_a_good_variant_beside_one_that_kills_the_worker_is_not_killed(tmp_path)
         features: [rms]
         audio: none
         """)
-    scheduler_file = tmp_path / "scheduler.json"
-    procs = []
-    log = open(tmp_path / "dask.log", "wb")
-    try:
-        procs.append(_start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                             "--scheduler-file", str(scheduler_file)], _env(**SCHEDULER_ENV), log))
-        _wait_for(scheduler_file, procs)
-        procs.append(_start(["worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
-                             "--nthreads", "2", "--nworkers", "1", "--no-dashboard"], _env(), log))
+    with _loopback_cluster(tmp_path, [(2, {})]) as scheduler_file:
         table = hapticgraph.sweep(sweep, tmp_path / "out", scheduler_file=str(scheduler_file),
                                   report=lambda text: None, progress=False)
-    finally:
-        _stop(procs)
-        log.close()
     status = {row["boom.die"]: row["status"] for _, row in table.iterrows()}
     assert status == {1.0: "killed", 0.0: "ok"}, table[["boom.die", "status", "error"]].to_dict("records")
     with open(tmp_path / "out" / "manifest.csv", newline="") as f:
