@@ -50,13 +50,13 @@ def loop_child(patch, seconds):
 
     for d in drivers.values():
         d.fill, d.send = timed_call(d.fill, "drivers"), timed_call(d.send, "drivers")
-    make = engine.make_runner
+    make = engine.make_engine
 
     def runner(prog, which="compiled"):
         r = make(prog, which)
         r.run = timed_call(r.run, "kernel")
         return r
-    engine.make_runner = runner
+    engine.make_engine = runner
 
     class Null:
         def start(self, *args):

@@ -74,7 +74,7 @@ def measure(notes, rate, period, voices=0):
     import rtmidi
     import sounddevice as sd
     from hapticgraph.devices import open_drivers
-    from hapticgraph.graph.engine import Session
+    from hapticgraph.graph.engine import Runner
 
     import hapticgraph
 
@@ -85,7 +85,7 @@ def measure(notes, rate, period, voices=0):
         with open(path, "w") as f:
             f.write(POLY.format(rate=rate, voices=voices) if voices else PATCH.format(rate=rate))
         patch = hapticgraph.load(path)
-        session = Session(patch, drivers=open_drivers(patch), blocksize=4096)
+        session = Runner(patch, drivers=open_drivers(patch), blocksize=4096)
         session.start()
     hits, lock, state = [], threading.Lock(), {"pending": None}
 

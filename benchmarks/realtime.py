@@ -134,13 +134,13 @@ def servo(seconds, rate_goal=20000.0):
     from hapticgraph import load
     from hapticgraph.devices import open_drivers
     from hapticgraph.devices.record import Recorder, replay_drivers
-    from hapticgraph.graph.engine import Session
+    from hapticgraph.graph.engine import Runner
     path = os.path.join(ROOT, "patches", "fig7_bowed_string.yaml")
     patch = load(path)
     out = {}
     with tempfile.TemporaryDirectory() as folder:
         # a take of the simulated hand (what a HID reader thread would have buffered)
-        s = Session(patch, drivers=open_drivers(patch), blocksize=4096)
+        s = Runner(patch, drivers=open_drivers(patch), blocksize=4096)
         rec = Recorder(os.path.join(folder, "hand"), s.prog, 2, 4096, ring_seconds=12)
         total = int(patch.rate * (2 * seconds + 2))
         for t0 in range(0, total, 4096):
@@ -152,7 +152,7 @@ def servo(seconds, rate_goal=20000.0):
         _, drivers = replay_drivers(patch, os.path.join(folder, "hand.hgrec"))
 
         def session():
-            ss = Session(patch, drivers=drivers, blocksize=64, runaway=1e3)
+            ss = Runner(patch, drivers=drivers, blocksize=64, runaway=1e3)
             ss.start()
             for d in drivers.values():
                 d.sent = _Sink()          # after start(), which resets it

@@ -76,12 +76,12 @@ def buffered(drivers, rate, samples=1 << 16):
 def session(path, buffer=False):
     from hapticgraph import load
     from hapticgraph.devices import open_drivers
-    from hapticgraph.graph.engine import Session
+    from hapticgraph.graph.engine import Runner
     patch = load(str(path))
     drivers = open_drivers(patch)
     if buffer:
         drivers = buffered(drivers, float(patch.rate))
-    s = Session(patch, drivers=drivers, blocksize=64, runaway=1e3)
+    s = Runner(patch, drivers=drivers, blocksize=64, runaway=1e3)
     for _ in range(2000):                      # warm: the views made, the entry point remembered
         s.process(1)
     return s
@@ -98,7 +98,7 @@ def per_call(fn, calls):
 def parts(s):
     """name -> a callable doing one part of process(1) on session s's own views."""
     _, rec, ext, fills, sends = s.views
-    k, p = s.runner, s.prog
+    k, p = s.engine, s.prog
     out = {"process(1)": lambda: s.process(1),
            "kernel (CompiledKernel.run)": lambda: k.run(s.t, rec, ext),
            "kernel through the dispatcher": lambda: k.fn(1, s.t, p.state, p.live, p.coef, rec, ext, *k.extra)}

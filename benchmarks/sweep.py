@@ -54,7 +54,7 @@ def main():
     ap.add_argument("--shell", type=int, default=40, help="variants the shell loop renders (its rate is per variant)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     args = ap.parse_args()
-    from hapticgraph.sweep_spec import load_spec
+    from hapticgraph.sweeps import load_spec
     work = tempfile.mkdtemp(prefix="hg_sweep_bench_")
     try:
         shutil.copy(os.path.join(HERE, "string_100.yaml"), os.path.join(work, "string.yaml"))

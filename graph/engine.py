@@ -4,6 +4,7 @@ as possible, and hand each block to a sink: `render` keeps arrays, `run` streams
 import sys
 import threading
 import time
+import warnings
 
 import numpy as np
 
@@ -12,7 +13,7 @@ from .isolate import compiled
 from .program import Program
 
 ENGINES = ("compiled", "python")
-STOP_SECONDS = 5.0      # how long a device may take to stop before it is abandoned (Session.stop)
+STOP_SECONDS = 5.0      # how long a device may take to stop before it is abandoned (Runner.stop)
 
 
 class Driver:
@@ -84,7 +85,9 @@ class Render:
         self.compile_seconds, self.run_seconds = compile_seconds, run_seconds
 
 
-def make_runner(prog, engine="compiled"):
+def make_engine(prog, engine="compiled"):
+    """What `engine` names: the compiled kernel ("compiled") or the reference interpreter
+    ("python"), both with `run(t0, rec, ext)`."""
     if engine == "compiled":
         return compiled(prog)       # a plugin block numba cannot compile: PatchError at its line
     if engine == "python":
@@ -103,21 +106,22 @@ class SafetyStop(Exception):
         self.kept = kept
 
 
-class Session:
-    """A patch running block by block: the one loop behind both `run` (offline) and `play`
+class Runner:
+    """The runner of one program (graph/program.py) on one engine (`engine`: the compiled kernel
+    or the interpreter): a patch running block by block, the one loop behind both `run` (offline) and `play`
     (an audio callback). Each `process(n)`: edits queued since the last block are applied, the
     drivers fill the device inputs, the kernel runs n samples and checks them itself (its guard,
     graph/guard.py: a NaN or an infinity anywhere; a runaway in the audio or in a force sent to a
     device — never in a probe, which may watch anything — and each force clamped to its device's
     max_force), and the forces go to the drivers — zeros, and SafetyStop, if the check failed (the
     kernel zeroed them) or a device was lost. Nothing is allocated per block: the views of a
-    block size are made once.
+    block size are made once. Programs use it through hapticgraph.Session, the public door.
     """
 
     def __init__(self, patch, probes=(), drivers=None, engine="compiled", blocksize=1 << 14,
                  runaway=1e3, editable=False):
         self.prog = Program(patch, probes, drivers, editable=editable)
-        self.runner = make_runner(self.prog, engine)
+        self.engine = make_engine(self.prog, engine)
         self.blocksize = int(blocksize)
         self.runaway = float(runaway)
         prog = self.prog
@@ -177,7 +181,7 @@ class Session:
         t0 = self.t
         for driver, columns in fills:
             driver.fill(t0, columns)
-        code = self.runner.run(t0, rec, ext)
+        code = self.engine.run(t0, rec, ext)
         self.t = t0 + n
         for driver, force, zeros in sends:
             driver.send(t0, zeros if getattr(driver, "lost", None) else force)
@@ -259,9 +263,9 @@ def stream(patch, seconds, sink, probes=(), engine="compiled", chunk=1 << 14, pr
         width = len(probes) + len(patch.devices) + sum(len(b.inputs) for b in patch.blocks.values()
                                                        if getattr(b.cls, "audio_sink", False))
         chunk = max(1, min(int(chunk), max(1024, (32 << 20) // (8 * max(1, width)))))   # rec ≤ ~32 MB
-        session = Session(patch, probes, drivers, engine, blocksize=chunk,
+        session = Runner(patch, probes, drivers, engine, blocksize=chunk,
                           runaway=runaway if safety else np.inf)
-        out.compile_seconds = session.runner.compile_seconds
+        out.compile_seconds = session.engine.compile_seconds
         if stop is not None:
             stop.rendering = True
         _stream(session, seconds, sink, probes, progress, safety, stop, out)
@@ -338,3 +342,12 @@ def render(patch, seconds, probes=(), engine="compiled", chunk=1 << 14, progress
             exc.result = sink.result(exc.streamed)
         raise
     return sink.result(streamed)
+
+
+def __getattr__(name):
+    # `Session` was this module's name for Runner until 0.1.0, beside the public hapticgraph.Session
+    if name == "Session":
+        warnings.warn("hapticgraph.graph.engine.Session is now hapticgraph.graph.engine.Runner; programs "
+                      "use hapticgraph.Session", DeprecationWarning, stacklevel=2)
+        return Runner
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -9,6 +9,9 @@ from .program import Program
 
 
 class Interpreter:
+    key = None            # nothing is compiled: no kernel key (CompiledKernel.key)
+    compiled = False
+
     def __init__(self, prog: Program):
         self.prog = prog
         self.compile_seconds = 0.0

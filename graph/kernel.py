@@ -44,8 +44,9 @@ def backends(root):
 
 
 def compile_kernel(key, source, label, warm):
-    """(kernel, path of kernel.py or None, backend): from a verified cache entry, else compiled
-    (into a fresh entry when the cache folder is usable, else in memory)."""
+    """(kernel, path of kernel.py or None, backend, compiled): from a verified cache entry
+    (compiled False), else compiled (into a fresh entry when the cache folder is usable, else in
+    memory)."""
     code = KernelCode(key, source)
     root = usable_cache_dir()
     if root is not None:
@@ -54,16 +55,16 @@ def compile_kernel(key, source, label, warm):
             for backend in backends(root):
                 fn = backend.load(entry, code, warm)
                 if fn is not None:
-                    return fn, entry.kernel_file, backend
+                    return fn, entry.kernel_file, backend, False
         _say(f"compiling {label}…")
         try:
-            return _into_entry(entry, code, warm)
+            return (*_into_entry(entry, code, warm), True)
         except OSError as exc:
             warn_once(f"kernel cache {root!r}: {exc.strerror or exc}; compiling in memory")
     else:
         _say(f"compiling {label}…")
     try:
-        return JIT.memory(code, warm), None, JIT
+        return JIT.memory(code, warm), None, JIT, True
     finally:
         settle_helpers()
 
@@ -106,9 +107,11 @@ class CompiledKernel:
         label = label or f"kernel for {len(prog.plans)} block{'s' if len(prog.plans) != 1 else ''}"
         where = (cache_dir(), self.key)
         loaded = _loaded.get(where)
-        if loaded is None:
-            loaded = _loaded[where] = compile_kernel(self.key, source, label, warm)
+        if loaded is None:          # `compiled`: made here and now, not loaded from the cache
+            *loaded, self.compiled = compile_kernel(self.key, source, label, warm)
+            loaded = _loaded[where] = tuple(loaded)
         else:
+            self.compiled = False
             warm(loaded[0])
         self.fn, self.path, self.backend = loaded
         if os.environ.get("HAPTICGRAPH_DUMP") == "1":

@@ -10,11 +10,15 @@ The names are imported when first used (PEP 562), so `import hapticgraph` and th
 `--help`, `check` and `graph` start without numba, scipy or sounddevice.
 """
 import importlib
+import importlib.abc
+import importlib.util
 import os
+import sys
+import warnings
 
 from .graph.registry import provide_drivers as _provide_drivers
 
-__version__ = "0.1.0"
+__version__ = "0.1.0"        # the one source: pyproject.toml reads it, `hapticgraph --version` prints it
 
 
 def _device_drivers():
@@ -50,7 +54,58 @@ _LAZY = {
 }
 
 
+# module paths that name a module of a package: `hapticgraph.features` is public (README, plugins
+# register features through it); the others are the flat modules of 0.1.0, kept for one release
+PUBLIC_MODULES = {"features": "hapticgraph.sweeps.features"}
+MOVED = {
+    **{f"cli_{m}": f"hapticgraph.cli.{m}" for m in ("common", "parser", "run", "play", "inspect", "sizes", "sweep")},
+    **{f"sweep_{m}": f"hapticgraph.sweeps.{m}" for m in ("spec", "check", "files", "worker", "manifest")},
+    "fitting": "hapticgraph.sweeps.fitting",
+    "studio.cli": "hapticgraph.cli.studio",
+}
+
+
+class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Imports `hapticgraph.NAME`, for a NAME of PUBLIC_MODULES or MOVED, as the very module it now
+    is (one module object under both names; MOVED ones with a DeprecationWarning)."""
+
+    def __init__(self):
+        self.specs = {}         # alias -> the spec of the module it names, while it is imported
+
+    def find_spec(self, fullname, path=None, target=None):
+        name = fullname.partition("hapticgraph.")[2]
+        if fullname.startswith("hapticgraph.") and (name in PUBLIC_MODULES or name in MOVED):
+            return importlib.util.spec_from_loader(fullname, self)
+        return None
+
+    def create_module(self, spec):
+        name = spec.name.partition("hapticgraph.")[2]
+        target = PUBLIC_MODULES.get(name) or MOVED[name]
+        if name in MOVED:
+            warnings.warn(f"{spec.name} is now {target}; the old name goes in the next release",
+                          DeprecationWarning, stacklevel=_importer_level())
+        real = importlib.import_module(target)
+        self.specs[spec.name] = real.__spec__    # the import system sets the alias's spec on it next
+        return real
+
+    def exec_module(self, module):
+        module.__spec__ = self.specs.pop(module.__spec__.name)     # the module keeps its own spec
+
+
+def _importer_level():
+    """The stack level of the code whose import statement is running (past importlib's frames)."""
+    frame, level = sys._getframe(2), 2
+    while frame is not None and frame.f_code.co_filename.startswith("<frozen importlib"):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+sys.meta_path.append(_Alias())
+
+
 def __getattr__(name):
+    if name in PUBLIC_MODULES or name in MOVED:
+        return importlib.import_module(f"{__name__}.{name}")
     try:
         module, attr = _LAZY[name]
     except KeyError:
@@ -117,7 +172,7 @@ def sweep(spec_or_path, out, client=None, **options):
 def fit(patch, target, axes, client=None, **options):
     """Find the values of `axes` ({"block.param": (min, max)} or an axes file) whose render of
     `patch` matches the recording `target`, on Dask; a FitResult (`.values`, `.distance`,
-    `.patch_path`, `.rows`). See hapticgraph.fitting.fit for the options."""
+    `.patch_path`, `.rows`). See hapticgraph.sweeps.fit for the options."""
     from .fitting import fit as _fit
     return _fit(patch, target, axes, client=client, **options)
 

@@ -20,8 +20,7 @@ import numpy as np
 from .blocks.network import parse_ref
 from .devices import Choice, open_drivers, parse_choice
 from .devices.watch import carry_state, reload_drivers
-from .graph.engine import Session as Engine
-from .graph.engine import stop_driver
+from .graph.engine import Runner, SafetyStop, stop_driver
 from .graph.patch import load
 from .graph.errors import PlanError
 
@@ -33,8 +32,8 @@ class Swap:
     over, `opened` the drivers opened for it (devices whose entry changed). It plays from the
     next block boundary on; `applied` is set then."""
 
-    def __init__(self, session, engine, carry, kept, opened, unused):
-        self.session, self.engine, self.carry = session, engine, carry
+    def __init__(self, session, runner, carry, kept, opened, unused):
+        self.session, self.runner, self.carry = session, runner, carry
         self.kept, self.opened, self.unused = sorted(kept), opened, unused
         self.at = None              # the sample it began to play at
         self.applied = threading.Event()
@@ -56,7 +55,7 @@ class Session:
                  overrides=(), choices=None, live_input=None):
         self.overrides, self.choices, self.live_input = tuple(overrides), dict(choices or {}), live_input
         self.engine_name, self.editable, self.runaway = engine, editable, runaway
-        self._engine = Engine(patch, probes, drivers, engine, blocksize=blocksize, runaway=runaway, editable=editable)
+        self._runner = Runner(patch, probes, drivers, engine, blocksize=blocksize, runaway=runaway, editable=editable)
         self._edits, self._swaps, self._retired = collections.deque(), collections.deque(), collections.deque()
         self._cut = (0,)
         self._last = 0
@@ -95,48 +94,65 @@ class Session:
     # -- facts -----------------------------------------------------------------------------------
     @property
     def rate(self):
-        return self._engine.rate
+        return self._runner.rate
 
     @property
     def t(self):
         """The samples processed so far (the time of the next one, in samples)."""
-        return self._engine.t
+        return self._runner.t
 
     @property
     def blocksize(self):
-        return self._engine.blocksize
+        return self._runner.blocksize
 
     @property
     def program(self):
         """The plan underneath (graph.program.Program), for the devices layer (a take's header)."""
-        return self._engine.prog
+        return self._runner.prog
 
     @property
     def patch(self):
-        return self._engine.prog.patch
+        return self._runner.prog.patch
+
+    @property
+    def kernel_key(self):
+        """The compiled kernel's key (graph/cachekey.py): variants of one structure share it;
+        None with the interpreter (engine="python")."""
+        return self._runner.engine.key
+
+    @property
+    def compile_seconds(self):
+        """Seconds spent making the running patch's kernel: compiled, or loaded from the cache."""
+        return self._runner.engine.compile_seconds
+
+    @property
+    def compiled(self):
+        """True when making this session's kernel compiled it (no cache entry, in this process or
+        on disk, held it)."""
+        return self._runner.engine.compiled
 
     @property
     def channels(self):
-        return self._engine.prog.channels
+        return self._runner.prog.channels
 
     @property
     def probes(self):
-        prog = self._engine.prog
+        prog = self._runner.prog
         return tuple(label for label, _ in prog.records[prog.channels:self._first_force()])
 
     @property
     def drivers(self):
         """{device or block name: the Driver feeding it}."""
-        return dict(self._engine.prog.drivers)
+        return dict(self._runner.prog.drivers)
 
     def _first_force(self):
-        prog = self._engine.prog
+        prog = self._runner.prog
         return prog.device_records[0][1] if prog.device_records else len(prog.records)
 
     # -- running ---------------------------------------------------------------------------------
     def start(self):
         """Start the drivers (the first `process` does it otherwise)."""
-        self._engine.start()
+        self._runner.start()
 
     def process(self, n):
         """Run the next n samples: a view (n × columns, the audio channels then the probes) valid
@@ -153,11 +169,11 @@ class Session:
             self.apply()
         views = self._cut
         if views[0] != n:
-            engine, f0 = self._engine, self._first_force()
-            views = self._cut = (n, engine.rec[:n, :f0], engine.rec[:n, f0:], engine.ext[:n])
+            runner, f0 = self._runner, self._first_force()
+            views = self._cut = (n, runner.rec[:n, :f0], runner.rec[:n, f0:], runner.ext[:n])
         _, out, self.forces, self.inputs = views
         self._last = 0
-        self._engine.process(n)
+        self._runner.process(n)
         self._last = n
         return out
 
@@ -175,13 +191,13 @@ class Session:
         while self._swaps:
             self._switch(self._swaps.popleft())
         while self._edits:
-            self._edits.popleft()(self._engine.prog)
+            self._edits.popleft()(self._runner.prog)
 
     def close(self):
         """Stop every driver (the session can be dropped then)."""
         for swap in tuple(self._swaps):
             self.withdraw(swap)
-        self._engine.stop()
+        self._runner.stop()
         self.retire()
 
     def __enter__(self):
@@ -205,11 +221,11 @@ class Session:
     def values(self, block):
         """{name: value} of `block` now: each of its states, and each output a probe records
         (`BLOCK.PORT`), at the last sample processed."""
-        prog = self._engine.prog
+        prog = self._runner.prog
         cls = self._instance(block).cls
         out = {s.attr: float(v[0]) for s, v in zip(cls.states, prog.state_views(block))}
         if self._last:
-            row = self._engine.rec[self._last - 1]
+            row = self._runner.rec[self._last - 1]
             for j, label in enumerate(self.probes):
                 name, _, port = label.partition(".")
                 if name == block:
@@ -219,14 +235,14 @@ class Session:
     def params(self, block):
         """{parameter: value} that `block` plays with now (the patch's, with the changes made)."""
         self._instance(block)
-        return self._engine.prog.block_values(block)
+        return self._runner.prog.block_values(block)
 
     def points(self, block):
         """The cells of a lattice or cell block: Points with `positions`, `velocities`, `forces`
         (numpy views of the running state: writing into them moves the cells at the next block),
         `shape`, `cells`, and the masks `locked`, `cut`. Valid until a swap."""
         try:
-            return self._engine.prog.points(block)
+            return self._runner.prog.points(block)
         except PlanError as exc:
             raise ValueError(str(exc)) from None
 
@@ -242,7 +258,7 @@ class Session:
         `done(text, error)` is called once applied (error: None, or why it was refused then)."""
         try:
             value = float(value)
-            self._engine.prog.check_set(block, param, value)
+            self._runner.prog.check_set(block, param, value)
         except (PlanError, TypeError) as exc:
             raise ValueError(str(exc)) from None
         self._queue(lambda prog: prog.set_param(block, param, value), f"{block}.{param} = {value:g}", done)
@@ -265,7 +281,7 @@ class Session:
             raise ValueError(f"{action} {cell!r}: write a cell as NAME[i, j] (or a cell block's NAME)")
         name, index = ref
         try:
-            self._engine.prog.edit_cell(name, index, action, apply=False)
+            self._runner.prog.edit_cell(name, index, action, apply=False)
         except PlanError as exc:
             raise ValueError(str(exc)) from None
         self._queue(lambda prog: prog.edit_cell(name, index, action), f"{action} {cell.strip()}", done)
@@ -299,14 +315,14 @@ class Session:
         self.retire()
         if isinstance(patch, (str, os.PathLike)):
             patch = load(patch, overrides=self.overrides)
-        old = self._engine
+        old = self._runner
         if float(patch.rate) != old.rate:
             raise ValueError(f"{patch.name!r} runs at {float(patch.rate):g} Hz, the session at {old.rate:g} Hz: "
                              "open a new session for another rate")
         choices = self.choices if devices is None else device_choices(devices)
         drivers, opened, unused = reload_drivers(old.prog.patch, patch, old.prog.drivers, choices, self.live_input)
         probes = self.probes if probes is None else tuple(probes)
-        new = Engine(patch, probes, drivers, self.engine_name, blocksize=old.blocksize,
+        new = Runner(patch, probes, drivers, self.engine_name, blocksize=old.blocksize,
                      runaway=self.runaway, editable=self.editable)
         carry, kept = carry_state(old.prog, new.prog)
         if old.started:
@@ -334,12 +350,12 @@ class Session:
             stop_driver(name, driver)
 
     def _switch(self, swap):
-        old, new = self._engine, swap.engine
+        old, new = self._runner, swap.runner
         for dst, src in swap.carry:
             np.copyto(dst, src)
         new.t = swap.at = old.t
         new.started = old.started
-        self._engine = new
+        self._runner = new
         self._cut = (0,)
         self._last = 0
         self._retired.extend(swap.unused)           # (name, driver) pairs
@@ -361,4 +377,4 @@ def device_choices(devices):
     return out
 
 
-__all__ = ["CELL_EDITS", "Session", "Swap", "device_choices"]
+__all__ = ["CELL_EDITS", "SafetyStop", "Session", "Swap", "device_choices"]

@@ -43,11 +43,11 @@ def string_session(write_patch):
     """string_session(blocksize, editable=True) -> a Session of EDITABLE_STRING."""
     from hapticgraph import load
     from hapticgraph.devices import open_drivers
-    from hapticgraph.graph.engine import Session
+    from hapticgraph.graph.engine import Runner
 
     def make(blocksize, editable=True):
         patch = load(write_patch(EDITABLE_STRING))
-        return Session(patch, drivers=open_drivers(patch), blocksize=blocksize, editable=editable)
+        return Runner(patch, drivers=open_drivers(patch), blocksize=blocksize, editable=editable)
     return make
 
 

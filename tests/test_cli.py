@@ -61,7 +61,7 @@ def test_check_ok(patches_dir, capsys):
 
 
 def test_every_subcommand_help_has_a_description_and_an_example(capsys):
-    from hapticgraph.cli import _parser
+    from hapticgraph.cli.parser import build_parser as _parser
     sub = next(a for a in _parser()._actions if a.dest == "command")
     assert set(sub.choices) >= {"run", "play", "check", "blocks", "schema", "graph", "plot", "modes", "devices"}
     for name in sub.choices:

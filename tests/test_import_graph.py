@@ -61,6 +61,11 @@ def test_import_linter_has_the_contracts():
     config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     assert any(r.startswith("import-linter") for r in config["project"]["optional-dependencies"]["dev"])
     contracts = {c["type"]: c for c in config["tool"]["importlinter"]["contracts"]}
-    assert [layer.split(" : ")[0] for layer in contracts["layers"]["layers"]][1:] == ["devices", "graph", "blocks"]
+    layers = contracts["layers"]["layers"]
+    assert layers[-4:] == ["session", "devices", "graph", "blocks"]
+    assert layers.index("cli") < next(i for i, layer in enumerate(layers) if "studio" in layer and "sweeps" in layer)
     assert contracts["acyclic_siblings"]["ancestors"] == ["hapticgraph"]
+    door = contracts["forbidden"]
+    assert set(door["source_modules"]) == {"hapticgraph.studio", "hapticgraph.sweeps"}
+    assert door["forbidden_modules"] == ["hapticgraph.graph.engine"]
     assert "tools/lint_imports.py" in (ROOT / ".ci" / "run").read_text(encoding="utf-8")

@@ -192,7 +192,7 @@ def swap(live, patch, probes=None):
     session = live.session
     old = session.program
     queued = session.swap(patch, probes=probes)
-    extra = body_carry(old, queued.engine.prog, set(queued.kept))
+    extra = body_carry(old, queued.runner.prog, set(queued.kept))
     with live.lock:                 # between two blocks
         if queued.applied.is_set():        # it played already: the old cells are as it left them
             for dst, src in extra:

@@ -7,7 +7,7 @@ import threading
 import time
 
 from ..devices import audio
-from ..graph.engine import SafetyStop
+from ..session import SafetyStop
 
 BEHIND = 0.25          # seconds behind the clock after which the clock runner skips ahead
 

@@ -122,13 +122,13 @@ def session(folder, path, rate, voices, channel):
     """A Session of the corpus patch playing the file, its probes: each voice's gate and freq."""
     import hapticgraph
     from hapticgraph.devices import open_drivers
-    from hapticgraph.graph.engine import Session
+    from hapticgraph.graph.engine import Runner
     (folder / "song.mid").write_bytes(pathlib.Path(path).read_bytes())
     (folder / "p.yaml").write_text(PATCH.format(rate=rate, file="song.mid", voices=voices, channel=channel,
                                                 bend=BEND_RANGE))
     patch = hapticgraph.load(folder / "p.yaml")
     probes = [f"v{k}_note.{p}" for k in range(1, voices + 1) for p in ("gate", "freq")]
-    return Session(patch, probes, open_drivers(patch), blocksize=BLOCK)
+    return Runner(patch, probes, open_drivers(patch), blocksize=BLOCK)
 
 
 def check(block, c0, notes, found, before, bends, bend_range=BEND_RANGE):

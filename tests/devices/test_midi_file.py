@@ -172,7 +172,7 @@ def test_a_device_that_never_stops_is_abandoned_with_one_line(song_patch, monkey
     drivers = open_drivers(patch)
     release = threading.Event()
     monkeypatch.setattr(drivers["song"], "stop", lambda: release.wait(30))
-    session = engine.Session(patch, drivers=drivers, blocksize=64)
+    session = engine.Runner(patch, drivers=drivers, blocksize=64)
     session.process(64)
     began = time.monotonic()
     session.stop()

@@ -12,7 +12,7 @@ import pytest
 import rtmidi
 from hapticgraph.devices import open_drivers
 from hapticgraph.devices.midi import list_ports, write_midi_file
-from hapticgraph.graph.engine import Session
+from hapticgraph.graph.engine import Runner
 
 import hapticgraph
 
@@ -98,7 +98,7 @@ def _run_until(session, keyboard, blocks, send, want, every=0):
 def test_port_listed_and_played(keyboard, write_patch):
     assert any("hg-keys" in p for _, p in list_ports("jack"))
     patch = hapticgraph.load(write_patch(PATCH.replace("PORT", "hg-keys")))
-    session = Session(patch, probes=["note.freq", "note.velocity", "cc.out"], drivers=open_drivers(patch),
+    session = Runner(patch, probes=["note.freq", "note.velocity", "cc.out"], drivers=open_drivers(patch),
                       blocksize=256)
     try:
         rec = _run_until(session, keyboard, 400, [[0x90, 72, 127], [0xE0, 0, 0x60], [0xB0, 1, 127]],
@@ -120,7 +120,7 @@ def test_missing_port_is_one_clear_error(jack, write_patch):
     patch = hapticgraph.load(write_patch(PATCH.replace("PORT", "no-such-port")))
     drivers = open_drivers(patch)
     with pytest.raises(Exception, match="no MIDI input port matching 'no-such-port'"):
-        Session(patch, drivers=drivers, blocksize=64).start()
+        Runner(patch, drivers=drivers, blocksize=64).start()
 
 
 def test_devices_lists_midi_ports(keyboard):
@@ -154,7 +154,7 @@ def test_live_notes_are_allocated_to_voices_as_from_a_file(keyboard, write_patch
     probes = ["v1_note.gate", "v1_note.freq", "v2_note.gate", "v2_note.freq"]
     drivers = open_drivers(patch)
     drivers["keys"].log = []
-    session = Session(patch, probes=probes, drivers=drivers, blocksize=256)
+    session = Runner(patch, probes=probes, drivers=drivers, blocksize=256)
     f = [440 * 2 ** ((key - 69) / 12) for key in (60, 64, 67)]
     try:
         rec = _run_until(session, keyboard, 400, [[0x90, 60, 100], [0x90, 64, 100], [0x90, 67, 100]],

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hapticgraph.devices import open_drivers
 from hapticgraph.devices.osc import ProbeSender
-from hapticgraph.graph.engine import ArraySink, Session, stream
+from hapticgraph.graph.engine import ArraySink, Runner, stream
 from osc_env import osc_listener
 from pythonosc.dispatcher import Dispatcher
 from pythonosc.osc_server import BlockingOSCUDPServer
@@ -46,7 +46,7 @@ def _play_until(session, want, blocks=500):
 def test_osc_in_and_map_over_loopback(write_patch):
     patch = hapticgraph.load(write_patch(PATCH))
     drivers = open_drivers(patch)
-    session = Session(patch, probes=["fader.out", "second.out"], drivers=drivers, blocksize=64)
+    session = Runner(patch, probes=["fader.out", "second.out"], drivers=drivers, blocksize=64)
     session.start()
     try:
         client = SimpleUDPClient("127.0.0.1", drivers["ctl"].port)
@@ -69,7 +69,7 @@ def test_port_in_use_is_a_clear_error(write_patch):
         patch = hapticgraph.load(write_patch(PATCH.replace("port: 0", f"port: {busy.server_address[1]}")))
         drivers = open_drivers(patch)
         with pytest.raises(Exception, match="cannot listen for OSC"):
-            Session(patch, drivers=drivers, blocksize=64).start()
+            Runner(patch, drivers=drivers, blocksize=64).start()
     finally:
         busy.server_close()
 

@@ -14,7 +14,7 @@ from hapticgraph.devices.serial_profiles import (
     shipped_profiles,
 )
 from hapticgraph.devices.serial_sim import SerialSim
-from hapticgraph.graph.engine import SafetyStop, Session
+from hapticgraph.graph.engine import SafetyStop, Runner
 from hapticgraph.graph.errors import PatchError
 
 import hapticgraph
@@ -38,7 +38,7 @@ connect:
 def _session(write_patch, sim, profile="fader_1dof", limit=1.0, probes=()):
     text = PATCH.replace("PROFILE", profile).replace("PORT", sim.path).replace("LIMIT", str(limit))
     patch = hapticgraph.load(write_patch(text))
-    return Session(patch, probes=list(probes), drivers=open_drivers(patch), blocksize=64)
+    return Runner(patch, probes=list(probes), drivers=open_drivers(patch), blocksize=64)
 
 
 def _run(session, blocks):

@@ -8,7 +8,7 @@ import pytest
 
 from hapticgraph import load
 from hapticgraph.devices import open_drivers
-from hapticgraph.graph.engine import SafetyStop, Session
+from hapticgraph.graph.engine import SafetyStop, Runner
 from hapticgraph.graph.interpreter import Interpreter
 from hapticgraph.graph.kernel import CompiledKernel
 from hapticgraph.graph.program import Program
@@ -59,9 +59,9 @@ def test_limits_are_data(write_patch):
                       write_patch(PUSH.format(max_force=3.0, value=1.0), "b.yaml"))}
     assert len(keys) == 1
     path = write_patch(PUSH.format(max_force=3.0, value=1.0), "b.yaml")
-    s1 = Session(load(path), drivers=open_drivers(load(path)), runaway=1e3, blocksize=16)
-    s2 = Session(load(path), drivers=open_drivers(load(path)), runaway=0.5, blocksize=16)
-    assert s1.runner.key == s2.runner.key in keys
+    s1 = Runner(load(path), drivers=open_drivers(load(path)), runaway=1e3, blocksize=16)
+    s2 = Runner(load(path), drivers=open_drivers(load(path)), runaway=0.5, blocksize=16)
+    assert s1.engine.key == s2.engine.key in keys
     s1.process(16)
     with pytest.raises(SafetyStop, match=r"runaway: pick.force -> finger reached 1 at 0.0000 s, over the limit 0.5"):
         s2.process(16)
@@ -73,7 +73,7 @@ def test_a_bad_force_zeroes_the_block_and_names_itself(write_patch):
     assert code == ref_code == 1 + 0 * 2 + 1        # sample 0, column 1: the force sent
     np.testing.assert_array_equal(rec, ref)
     assert np.all(rec[:, 1] == 0.0)                  # zeroed for the whole call
-    s = Session(load(path), drivers=open_drivers(load(path)), runaway=1e3, blocksize=8)
+    s = Runner(load(path), drivers=open_drivers(load(path)), runaway=1e3, blocksize=8)
     s.prog.live[s.prog.by_name["push"].live["value"]] = math.nan    # past set_param's range check
     with pytest.raises(SafetyStop, match=r"numerical blow-up: pick.force -> finger is nan at 0.0000 s") as info:
         s.process(8)
@@ -100,7 +100,7 @@ def test_a_state_that_is_not_finite_is_a_fault(write_patch):
     """Nothing recorded: the state array is checked after the loop, and a fault names its block."""
     (code, _), (ref_code, _) = _both(write_patch(LOOP), n=256)
     assert code == ref_code < 0
-    s = Session(load(write_patch(LOOP)), blocksize=256)
+    s = Runner(load(write_patch(LOOP)), blocksize=256)
     with pytest.raises(SafetyStop, match=r"numerical blow-up: the state of block '(loop|amp)' is (inf|-inf|nan)") as info:
         s.process(256)
     assert info.value.kept == 256
@@ -149,10 +149,10 @@ def test_a_session_steps_one_sample_a_call_through_the_entry_point(patches_dir):
     """Session.process(1) hands the kernel the same views every call (made once per block size),
     so the entry point is used; the numbers are those of one block of 2,000 samples."""
     path = patches_dir / "fig7_bowed_string.yaml"
-    fast = Session(load(path), drivers=open_drivers(load(path)), blocksize=64)
+    fast = Runner(load(path), drivers=open_drivers(load(path)), blocksize=64)
     got = np.concatenate([fast.process(1).copy() for _ in range(2000)])
-    assert fast.runner._rec is fast.views[1] and fast.runner._ext is fast.views[2]
-    slow = Session(load(path), drivers=open_drivers(load(path)), blocksize=2000)
+    assert fast.engine._rec is fast.views[1] and fast.engine._ext is fast.views[2]
+    slow = Runner(load(path), drivers=open_drivers(load(path)), blocksize=2000)
     np.testing.assert_array_equal(got, slow.process(2000))
     np.testing.assert_array_equal(fast.prog.state, slow.prog.state)
     np.testing.assert_array_equal(fast.prog.drivers["arm"].force_sent(), slow.prog.drivers["arm"].force_sent())
@@ -225,7 +225,7 @@ def test_a_force_over_the_limit_is_reported_as_it_was_not_clamped(write_patch):
     (code, rec), (ref_code, ref) = _both(path, n=16, runaway=0.5)
     assert code == ref_code == 1 + 0 * 2 + 1
     np.testing.assert_array_equal(rec, ref)
-    s = Session(load(path), drivers=open_drivers(load(path)), runaway=0.5, blocksize=8)
+    s = Runner(load(path), drivers=open_drivers(load(path)), runaway=0.5, blocksize=8)
     with pytest.raises(SafetyStop, match=r"runaway: pick.force -> finger reached 1 at 0.0000 s, over the limit 0.5"):
         s.process(8)
     assert np.all(s.prog.drivers["finger"].force_sent() == 0.0)

@@ -104,9 +104,9 @@ def test_control_rate_rederive_updates_scalar_and_array_coefficients(tmp_path):
     (tmp_path / "chord.py").write_text(PLUGIN)
     (tmp_path / "p.yaml").write_text("hapticgraph: 1\nplugins: [chord.py]\nblocks:\n  c: {type: chord_test}\nconnect: []\n")
     for engine in ("compiled", "python"):
-        from hapticgraph.graph.engine import make_runner
+        from hapticgraph.graph.engine import make_engine
         prog = Program(load(tmp_path / "p.yaml"), probes=["c.out"])
-        runner = make_runner(prog, engine)
+        runner = make_engine(prog, engine)
         rec = np.zeros((4, 1))
         runner.run(0, rec, np.zeros((4, 0)))
         assert np.all(rec[:, 0] == 6.5)

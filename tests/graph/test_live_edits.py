@@ -72,8 +72,8 @@ def test_state_views_of_a_delay_are_its_state_and_ring_buffer(write_patch, engin
     """state_views: the State slot, then the ring buffer; writing into the buffer is what the next
     kernel call reads: 37 samples of it come out, then the silence the line was fed."""
     from hapticgraph import load
-    from hapticgraph.graph.engine import Session
-    s = Session(load(write_patch(DELAY)), probes=("loop.out",), engine=engine, blocksize=64)
+    from hapticgraph.graph.engine import Runner
+    s = Runner(load(write_patch(DELAY)), probes=("loop.out",), engine=engine, blocksize=64)
     views = s.prog.state_views("loop")
     assert len(views) == 2 and views[0].shape == (1,) and len(views[1]) >= 39
     assert all(v.flags.writeable for v in views)

@@ -12,8 +12,8 @@ import soundfile
 
 from hostile_env import assert_patch_error
 
-from hapticgraph.cli_common import UsageError
-from hapticgraph.cli_sizes import WAV_LIMIT, size_outputs
+from hapticgraph.cli.common import UsageError
+from hapticgraph.cli.sizes import WAV_LIMIT, size_outputs
 from hapticgraph.devices.wav import AudioWriter
 
 TONE = """hapticgraph: 1

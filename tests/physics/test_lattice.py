@@ -526,7 +526,7 @@ def test_the_cube_stencil_moves_cells_as_the_csr_lists_do(write_patch, boundary)
     sum in another order, and over 3000 steps those 1e-16 differences grow to about 1e-12 of the
     peak in the free cube (its rigid mode integrates them), so 1e-10; a wrong neighbour or a lost
     force is off by the signal itself."""
-    from hapticgraph.graph.engine import Session
+    from hapticgraph.graph.engine import Runner
     text = (f"hapticgraph: 1\nrate: 44100\nblocks:\n"
             f"  L: {{type: lattice, shape: [5, 4, 6], mass: 0.001, tension: 8.0e4, damping: 0.003, "
             f"boundary: {boundary}}}\n"
@@ -536,7 +536,7 @@ def test_the_cube_stencil_moves_cells_as_the_csr_lists_do(write_patch, boundary)
     patch = load(write_patch(text))
     cells = {}
     for editable in (False, True):
-        s = Session(patch, editable=editable)
+        s = Runner(patch, editable=editable)
         assert (s.prog.group_of["L"].group.stencil is None) == editable
         s.process(3000)
         pts = s.prog.points("L")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hapticgraph import load
-from hapticgraph.graph.engine import Session
+from hapticgraph.graph.engine import Runner
 from hapticgraph.studio.adapter import body_carry
 
 SHEET = """
@@ -24,9 +24,9 @@ connect:
 
 @pytest.mark.parametrize("old_editable,new_editable", [(False, False), (False, True), (True, False)])
 def test_a_swapped_body_keeps_its_motion(write_patch, old_editable, new_editable):
-    old = Session(load(write_patch(SHEET.format(extra=""), name="a.yaml")), editable=old_editable)
+    old = Runner(load(write_patch(SHEET.format(extra=""), name="a.yaml")), editable=old_editable)
     old.process(300)
-    new = Session(load(write_patch(SHEET.format(extra=", damping: 0.001"), name="b.yaml")), editable=new_editable)
+    new = Runner(load(write_patch(SHEET.format(extra=", damping: 0.001"), name="b.yaml")), editable=new_editable)
     assert (new.prog.group_of["plate"].group.stencil is None) == new_editable
     before = old.prog.points("plate")
     x, v = before.positions.copy(), before.velocities.copy()

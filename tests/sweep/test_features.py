@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from hapticgraph import features
+from hapticgraph.sweeps import features
 
 RATE = 44100.0
 

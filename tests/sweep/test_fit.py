@@ -8,7 +8,7 @@ import pytest
 import soundfile
 
 import hapticgraph
-from hapticgraph import fitting
+from hapticgraph.sweeps import fitting
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 LENGTH, GAIN = 121.0, 0.985

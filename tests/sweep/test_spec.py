@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from hapticgraph.graph.errors import PatchError
-from hapticgraph.sweep_spec import load_spec
+from hapticgraph.sweeps import load_spec
 from sweeps_env import crash_patch, karplus, lattice, write
 
 

@@ -13,7 +13,7 @@ import pytest
 import soundfile
 
 import hapticgraph
-from hapticgraph.sweep_manifest import SweepError
+from hapticgraph.sweeps import SweepError
 from sweeps_env import crash_patch, karplus, lattice, write
 
 COLUMNS = ["id", "status", "error", "loop.length", "damp.gain", "f0", "t60", "centroid", "rms", "peak", "audio",

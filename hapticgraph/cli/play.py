@@ -3,15 +3,15 @@
 import signal
 import sys
 
-from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files
-from .cli_sizes import size_take
-from .devices import DeviceError, audio, check_choices
-from .devices.table import driver_origins, input_kind
-from .devices.record import Recorder
-from .devices.replay import replay_drivers
-from .graph.patch import load
-from .graph.program import PlanError
-from .session import Session
+from .common import UsageError, audio_channels, check_output, device_choices, input_files
+from .sizes import size_take
+from ..devices import DeviceError, audio, check_choices
+from ..devices.table import driver_origins, input_kind
+from ..devices.record import Recorder
+from ..devices.replay import replay_drivers
+from ..graph.patch import load
+from ..graph.program import PlanError
+from ..session import Session
 
 
 def cmd_play(args):
@@ -53,8 +53,8 @@ def cmd_play(args):
 def _check_record(args, patch):
     """--record TAKE writes TAKE.hgrec and TAKE.wav: neither may be a file this play reads (the
     patch, a plugin, an audio_in file, the take --replay plays), and with --seconds the WAV must
-    fit its format and the disk (cli_sizes), checked before any device opens."""
-    from .devices.take import take_paths
+    fit its format and the disk (cli/sizes.py), checked before any device opens."""
+    from ..devices.take import take_paths
     inputs = input_files(patch, args.replay)
     for path in take_paths(args.record):
         check_output("--record", path, inputs, "play")
@@ -78,7 +78,7 @@ def _check_options(args):
     if not 0 < args.osc_rate <= 1000:
         raise UsageError(f"--osc-rate {args.osc_rate:g}: expected messages per second in (0, 1000]")
     if args.osc_out:
-        from .devices.osc import parse_target
+        from ..devices.osc import parse_target
         try:
             args.osc_target = parse_target(args.osc_out)
         except ValueError as exc:
@@ -90,7 +90,7 @@ def _probe_out(args):
     """--osc-out's ProbeSender (sending on a thread of its own), or None."""
     if not args.osc_out:
         return None
-    from .devices.osc import ProbeSender
+    from ..devices.osc import ProbeSender
     host, port = args.osc_target
     try:
         return ProbeSender(None, host, port, rate=args.osc_rate)
@@ -166,7 +166,7 @@ def _run(args, patch, player, watcher):
         raise KeyboardInterrupt
     previous = signal.signal(signal.SIGTERM, terminate)
     if args.console:
-        from .console import HELP, Console
+        from ..console import HELP, Console
         Console(lambda: player.session).start()
         print(f"hapticgraph: {HELP}", file=sys.stderr)
     until = f"for {args.seconds:g} s" if args.seconds else "until Ctrl-C"
@@ -221,11 +221,11 @@ def cmd_devices(args):
         marks = [m for m, on in (("default output", c["default_out"]), ("default input", c["default_in"])) if on]
         print(f"  {c['index']:3d}  {c['name']}  [{c['hostapi']}]  in {c['inputs']}, out {c['outputs']}, "
               f"{c['rate']:g} Hz{'  (' + ', '.join(marks) + ')' if marks else ''}")
-    from .devices.midi import port_lines
+    from ..devices.midi import port_lines
     print(*port_lines(), sep="\n")
     print("HID devices (hidapi):")
     try:
-        from .devices.hid import list_hid_devices
+        from ..devices.hid import list_hid_devices
         hids = list_hid_devices()
     except (ImportError, AttributeError) as exc:
         print(f"  unavailable: {exc}")

@@ -17,15 +17,15 @@ import numpy as np
 import soundfile
 
 from .features import centroid, f0, mono, t60
-from .graph.errors import Collector
-from .graph.patch import load as load_patch
-from .graph.registry import Registry
-from .graph.source import LDict, load_yaml, parse
-from .sweep_check import check_variants, override
-from .sweep_files import bundle_of
-from .sweep_manifest import Manifest
-from .sweep_spec import SweepSpec, Variant, read_axes, variant_id
-from .sweeps import Tally, connect, submit_all
+from ..graph.errors import Collector
+from ..graph.patch import load as load_patch
+from ..graph.registry import Registry
+from ..graph.source import LDict, load_yaml, parse
+from .check import check_variants, override
+from .files import bundle_of
+from .manifest import Manifest
+from .spec import SweepSpec, Variant, read_axes, variant_id
+from .runner import Tally, connect, submit_all
 
 SIZES = (256, 1024, 4096)
 MISSING = 1.0             # a feature error when one side has no value

@@ -29,12 +29,12 @@ import re
 import numpy as np
 
 from .features import feature_table
-from .graph.errors import Collector, PatchError
-from .graph.patch import load as load_patch
-from .graph.registry import Registry
-from .graph.source import LDict, LList, load_yaml
-from .sweep_check import check_variants, mapped, override, suggest as _suggest
-from .sweep_files import bundle_of
+from ..graph.errors import Collector, PatchError
+from ..graph.patch import load as load_patch
+from ..graph.registry import Registry
+from ..graph.source import LDict, LList, load_yaml
+from .check import check_variants, mapped, override, suggest as _suggest
+from .files import bundle_of
 
 SAMPLERS = ("grid", "random", "lhs", "sobol")
 AUDIO = ("flac", "wav", "none")

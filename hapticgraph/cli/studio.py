@@ -6,11 +6,11 @@ import sys
 import threading
 import webbrowser
 
-from ..cli_common import UsageError, audio_channels, device_choices
+from .common import UsageError, audio_channels, device_choices
 from ..devices import DeviceError, check_choices
 from ..graph.patch import load
-from .server import build_app, new_token
-from .session import StudioSession
+from ..studio.server import build_app, new_token
+from ..studio.session import StudioSession
 
 
 SWITCH = 0.0002     # seconds a thread keeps the GIL while another waits: the sound thread waits less

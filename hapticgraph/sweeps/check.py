@@ -6,8 +6,8 @@ item) that caused them."""
 import difflib
 import json
 
-from .graph.errors import PatchError
-from .graph.patch import load as load_patch
+from ..graph.errors import PatchError
+from ..graph.patch import load as load_patch
 
 MAX_REPORTED_VARIANTS = 5
 

@@ -3,11 +3,8 @@ one by default). A bad sweep or axes file is `FILE:LINE: message` lines and exit
 is submitted; a variant that fails is a row of the manifest, not a failed command."""
 import json
 
-from .cli_common import UsageError
-from .fitting import fit
-from .sweep_manifest import SweepError
-from .sweep_spec import load_spec
-from .sweeps import sweep
+from .common import UsageError
+from ..sweeps import SweepError, fit, load_spec, sweep
 
 
 def _check_cluster_options(args):

@@ -4,6 +4,8 @@ error start at once."""
 import argparse
 import textwrap
 
+from .. import __version__
+
 
 def build_parser():
     ap = argparse.ArgumentParser(
@@ -14,11 +16,12 @@ def build_parser():
                "  hapticgraph run patches/karplus_strong.yaml --seconds 2 --out karplus_strong.wav\n"
                "  hapticgraph COMMAND --help        (each command's options and examples)\n\n"
                "exit status: 0 success, 2 a patch or command-line error, 1 anything else")
+    ap.add_argument("--version", action="version", version=f"hapticgraph {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in (_add_run, _add_play, _add_devices, _add_check, _add_blocks, _add_schema, _add_graph, _add_plot,
                 _add_modes, _add_studio):
         add(sub)
-    for add in (_add_sweep, _add_fit):      # many renders on Dask (cli_sweep)
+    for add in (_add_sweep, _add_fit):      # many renders on Dask (cli/sweep.py)
         add(sub)
     return ap
 
@@ -221,7 +224,7 @@ def _add_studio(sub):
     _device_option(studio)
 
 
-# -- sweep and fit: many renders on a Dask cluster (hapticgraph/cli_sweep.py) ---------------------
+# -- sweep and fit: many renders on a Dask cluster (cli/sweep.py) ---------------------
 
 def _cluster_options(parser):
     parser.add_argument("--workers", type=int, metavar="N",

@@ -5,7 +5,7 @@ instead, and a note says so. (A disk that fills during the render, from another 
 ends the run keeping every sample written: devices/files.py.)"""
 import os
 
-from .cli_common import UsageError
+from .common import UsageError
 
 WAV_LIMIT = (1 << 32) - 1 - 4096       # a RIFF chunk's 32-bit size, less room for the header chunks
 AIFF_LIMIT = WAV_LIMIT                 # AIFF's FORM chunk: 32-bit too
@@ -33,7 +33,7 @@ def free_bytes(path):
 def size_outputs(audio_path, probes_path, frames, rate, channels, probes, subtype, free=free_bytes):
     """Size the audio file (None: no audio) and the probes' .npz (None: no probes) of a render of
     `frames` frames; a Plan, or UsageError naming --out or --probes."""
-    from .devices.wav import audio_format      # soundfile: imported when a run writes
+    from ..devices.wav import audio_format      # soundfile: imported when a run writes
     plan, needs = Plan(), []                   # needs: (option, path, bytes on its disk)
     if audio_path and channels:
         fmt, sub = audio_format(audio_path, subtype)

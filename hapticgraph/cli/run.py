@@ -1,22 +1,22 @@
 """`hapticgraph run`: render a patch offline into an audio file and a probes file. Every output
 is checked before any work (it must not overwrite a file the run reads, and its size, known from
 the length, the rate, the channels and the format, must fit the format, the disk and the process's
-file-size limit: cli_sizes); what was rendered is written whatever stops the render (a signal, a
+file-size limit: cli/sizes.py); what was rendered is written whatever stops the render (a signal, a
 safety stop, a full disk). The render streams block by block: memory is flat in the duration."""
 import math
 import os
 import signal
 import sys
 
-from .cli_common import UsageError, audio_channels, check_output, device_choices, input_files, same_file
-from .cli_sizes import size_outputs
-from .devices import DeviceError, open_drivers
-from .devices.files import FileSink, OutputError
-from .devices.wav import AudioFileError
-from .graph.engine import SafetyStop, StopRequest, stream
-from .graph.errors import PatchError
-from .graph.patch import load
-from .graph.program import PlanError
+from .common import UsageError, audio_channels, check_output, device_choices, input_files, same_file
+from .sizes import size_outputs
+from ..devices import DeviceError, open_drivers
+from ..devices.files import FileSink, OutputError
+from ..devices.wav import AudioFileError
+from ..graph.engine import SafetyStop, StopRequest, stream
+from ..graph.errors import PatchError
+from ..graph.patch import load
+from ..graph.program import PlanError
 
 
 def cmd_run(args):
@@ -47,7 +47,7 @@ def _check_options(args, choices):
 def _replayed(patch, args):
     """The drivers of the take `--replay` names (checked against the patch); `--seconds` defaults
     to the take's length."""
-    from .devices.replay import replay_drivers     # takes (jsonschema, headers) only when replayed
+    from ..devices.replay import replay_drivers     # takes (jsonschema, headers) only when replayed
     try:
         take, replayed = replay_drivers(patch, args.replay)
     except DeviceError as exc:

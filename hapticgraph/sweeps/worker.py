@@ -2,7 +2,7 @@
 through the engine (one small adapter, `KernelRun`), compute its features and encode its audio;
 the row and the audio file's bytes go back to the client, which alone writes the manifest.
 
-A worker process keeps what the variants of a sweep share: the patch's files (sweep_files), one
+A worker process keeps what the variants of a sweep share: the patch's files (files.py), one
 block-type registry per patch, and — in graph/kernel — one compiled kernel per structure, so
 variants that differ only in numbers (data in the kernel) re-use it. `kernels` tells which
 structures this process has used and how many it compiled itself.
@@ -19,16 +19,15 @@ import time
 import numpy as np
 import soundfile
 
-from .devices import DeviceError, open_drivers
-from .devices.wav import audio_format
+from ..devices import DeviceError
+from ..devices.wav import audio_format
+from ..graph.errors import PatchError
+from ..graph.patch import load as load_patch
+from ..graph.program import PlanError
+from ..graph.registry import Registry
+from ..session import SafetyStop, Session
 from .features import compute
-from .graph import kernel as kernel_module
-from .graph.engine import SafetyStop, Session
-from .graph.errors import PatchError
-from .graph.patch import load as load_patch
-from .graph.program import PlanError
-from .graph.registry import Registry
-from .sweep_files import materialize
+from .files import materialize
 
 BLOCKSIZE = 4096          # a timeout is seen at the next block boundary: ~0.1 s of audio at 44.1 kHz
 RUNAWAY = 1e3             # as `hapticgraph.render`'s safety: a value past it is a runaway
@@ -37,29 +36,17 @@ _registries = {}          # patch path -> Registry, in this process
 kernels = {"keys": set(), "compiled": 0}      # structures used here, and kernels numba compiled here
 
 
-def _count_compile(text):
-    """graph/kernel's notice (set_notice): told only when a kernel is compiled, never when one is
-    re-used or loaded from the cache."""
-    if text.startswith("compiling"):
-        kernels["compiled"] += 1
-
-
 class KernelRun:
-    """The engine seen by a sweep: a patch's kernel run block by block (graph.engine.Session)."""
+    """The engine seen by a sweep: a patch's kernel run block by block (hapticgraph.Session)."""
 
-    def __init__(self, patch, drivers):
-        kernel_module.set_notice(_count_compile)     # a worker process tells nobody else of compiles
-        compiled = kernels["compiled"]
-        try:
-            self.session = Session(patch, (), drivers, "compiled", blocksize=BLOCKSIZE, runaway=RUNAWAY)
-        finally:
-            kernel_module.set_notice(None)
-        runner = self.session.runner
-        self.key, self.compile_seconds = runner.key, runner.compile_seconds
-        self.compiled = kernels["compiled"] > compiled
+    def __init__(self, patch):
+        self.session = Session.open(patch, blocksize=BLOCKSIZE, editable=False, runaway=RUNAWAY)
+        self.key, self.compile_seconds = self.session.kernel_key, self.session.compile_seconds
+        self.compiled = self.session.compiled
+        kernels["compiled"] += self.compiled
         self.new = self.key not in kernels["keys"]
         kernels["keys"].add(self.key)
-        self.rate, self.channels = self.session.rate, self.session.prog.channels
+        self.rate, self.channels = self.session.rate, self.session.channels
 
     def render(self, seconds, timeout=None):
         """(audio frames × channels, status, error): status ok, runaway or timeout; the audio
@@ -80,7 +67,7 @@ class KernelRun:
                 audio[done:done + n] = rec[:, :self.channels]
                 done += n
         finally:
-            self.session.stop()
+            self.session.close()
         return audio, "ok", ""
 
 
@@ -130,7 +117,7 @@ def _render(bundle, job, row, score):
     if registry is None:                        # the entry points are read once per patch, not per variant
         registry = _registries[path] = Registry()
     patch = load_patch(path, overrides=job["overrides"], registry=registry)
-    run = KernelRun(patch, open_drivers(patch))
+    run = KernelRun(patch)
     row.update(seconds_compile=run.compile_seconds, kernel=run.key, kernel_new=run.new, kernel_compiled=run.compiled)
     start = time.perf_counter()
     audio, status, error = run.render(job["seconds"], job.get("timeout"))

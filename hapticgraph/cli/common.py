@@ -14,7 +14,7 @@ def device_choices(items):
     says what the driver accepts."""
     if not items:
         return {}
-    from .devices import DeviceError, parse_choice
+    from ..devices import DeviceError, parse_choice
     choices = {}
     for item in items:
         try:
@@ -54,7 +54,7 @@ def input_files(patch, replay=None):
             files += [os.path.join(base, v) for v in spec.values()
                       if isinstance(v, str) and v and os.path.isfile(os.path.join(base, v))]
     if replay:
-        from .devices.take import take_paths
+        from ..devices.take import take_paths
         files += [replay, *take_paths(replay)]
     return files
 

@@ -5,12 +5,12 @@ import json
 import os
 import sys
 
-from .cli_common import UsageError, check_output, input_files
-from .graph.errors import PatchError
-from .graph.patch import load
-from .graph.program import PlanError
-from .graph.registry import Registry
-from .graph.schema import patch_schema
+from .common import UsageError, check_output, input_files
+from ..graph.errors import PatchError
+from ..graph.patch import load
+from ..graph.program import PlanError
+from ..graph.registry import Registry
+from ..graph.schema import patch_schema
 
 
 def cmd_schema(args):
@@ -41,7 +41,7 @@ def cmd_blocks(args):
     if args.patch:
         registry = load(args.patch).registry
     if args.markdown:
-        from .reference import block_reference
+        from ..reference import block_reference
         sys.stdout.write(block_reference(None if not args.patch else registry))
         return 0
     rows = [describe_block(registry.types[n], registry.origin[n]) for n in sorted(registry.types)]
@@ -69,7 +69,7 @@ def cmd_check(args):
     if any(origin.get(inst.cls.type_name) != "built-in" for inst in patch.blocks.values()):
         # plugins are the only code a patch runs: each plugin block is compiled on its own here, so
         # a body numba cannot compile fails `check` at the plugin's line, not `run` in another block
-        from .graph.isolate import plugin_problems
+        from ..graph.isolate import plugin_problems
         problems = plugin_problems(patch)
         if problems:
             raise PatchError(problems)
@@ -81,7 +81,7 @@ def cmd_check(args):
 
 
 def cmd_graph(args):
-    from .graph.export import to_dot, to_mermaid
+    from ..graph.export import to_dot, to_mermaid
     patch = load(args.patch)
     out = check_output("-o", args.out, input_files(patch), "command") if args.out else None
     text = (to_dot if args.format == "dot" else to_mermaid)(patch)
@@ -96,7 +96,7 @@ def cmd_graph(args):
 def cmd_modes(args):
     """The lowest modes of each network: K φ = ω² M φ (locked cells removed, damping ignored),
     sounding at f = (fs/π)·asin(ω/(2 fs)) under the half-step scheme; rigid modes print as 0 Hz."""
-    from .graph.modes import BudgetError, network_modes
+    from ..graph.modes import BudgetError, network_modes
     if args.count < 1:
         raise UsageError("--count must be at least 1")
     patch = load(args.patch, overrides=args.overrides)
@@ -125,7 +125,7 @@ def cmd_modes(args):
 
 
 def cmd_plot(args):
-    from . import plot
+    from .. import plot
     try:
         plot.pyplot()                 # before any work: without matplotlib, one line and exit 1
     except plot.MatplotlibMissing as exc:
@@ -144,12 +144,12 @@ def cmd_plot(args):
 def _mode_blocks(patch):
     """The blocks whose modes `plot --mode` can draw: the bodies of fused groups with a linear
     model (lattices and cells)."""
-    from .graph.modes import mode_blocks
+    from ..graph.modes import mode_blocks
     return mode_blocks(patch)
 
 
 def _plot_mode(args, patch, plot):
-    from .graph.modes import mode_shape
+    from ..graph.modes import mode_shape
     lattices = _mode_blocks(patch)
     name = args.lattice or (lattices[0] if lattices else None)
     if name is None:
@@ -165,7 +165,7 @@ def _plot_mode(args, patch, plot):
 
 
 def _plot_render(args, patch, plot):
-    from . import render
+    from .. import render
     spec = None if args.spectrogram == "none" else args.spectrogram
     probes = list(args.probe)
     if spec not in (None, "audio") and spec not in probes:

@@ -1,6 +1,6 @@
 """Sweeps on Dask: every variant of a sweep file rendered by the workers of a Dask cluster (a local
 one by default: one worker process per core), each result written by this client alone, as it
-arrives, into the results folder (sweep_manifest). A fault is a row, never the end of the sweep:
+arrives, into the results folder (sweeps/manifest.py). A fault is a row, never the end of the sweep:
 a variant whose worker dies (SIGKILL, out of memory) is retried once on another, then once more
 alone, then `killed`.
 
@@ -15,9 +15,9 @@ import sys
 import time
 import uuid
 
-from .sweep_manifest import Manifest, SweepError
-from .sweep_spec import SweepSpec, load_spec
-from .sweep_worker import render_variant
+from .manifest import Manifest, SweepError
+from .spec import SweepSpec, load_spec
+from .worker import render_variant
 
 ALLOWED_FAILURES = 1        # a task whose worker died is run once more, then reported `killed`
 # The scheduler of a cluster the sweep starts. A worker's death counts against every task the

@@ -3,9 +3,10 @@
 Exit status: 0 on success, 2 for a patch error (one `FILE:LINE: message` line per problem on
 standard error, never a traceback), 1 for any other failure.
 
-The arguments are declared in cli_parser; each command's body lives with the commands it belongs
-with: cli_run (run: offline to files), cli_play (play, devices: the sound card and the devices),
-cli_inspect (check, blocks, schema, graph, modes, plot). A command's module is imported after the
+The arguments are declared in cli/parser.py; each command's body lives with the commands it
+belongs with: cli/run.py (run: offline to files), cli/play.py (play, devices: the sound card and the
+devices), cli/inspect.py (check, blocks, schema, graph, modes, plot), cli/studio.py (studio),
+cli/sweep.py (sweep, fit); cli/common.py holds what they share. A command's module is imported after the
 arguments are parsed, so `--help` (and a usage error) never imports numpy, numba or the blocks.
 """
 import gc
@@ -14,24 +15,24 @@ import os
 import sys
 
 # light: the engine is imported once a command runs
-from .cli_common import UsageError
-from .cli_parser import build_parser as _parser
-from .graph.errors import PatchError
+from .common import UsageError
+from .parser import build_parser as _parser
+from ..graph.errors import PatchError
 
 # command -> (module of this package, function): imported when the command runs
 COMMANDS = {
-    "run": ("cli_run", "cmd_run"),
-    "play": ("cli_play", "cmd_play"),
-    "devices": ("cli_play", "cmd_devices"),
-    "check": ("cli_inspect", "cmd_check"),
-    "blocks": ("cli_inspect", "cmd_blocks"),
-    "schema": ("cli_inspect", "cmd_schema"),
-    "graph": ("cli_inspect", "cmd_graph"),
-    "plot": ("cli_inspect", "cmd_plot"),
-    "modes": ("cli_inspect", "cmd_modes"),
-    "studio": ("studio.cli", "cmd_studio"),
-    "sweep": ("cli_sweep", "cmd_sweep"),
-    "fit": ("cli_sweep", "cmd_fit"),
+    "run": ("run", "cmd_run"),
+    "play": ("play", "cmd_play"),
+    "devices": ("play", "cmd_devices"),
+    "check": ("inspect", "cmd_check"),
+    "blocks": ("inspect", "cmd_blocks"),
+    "schema": ("inspect", "cmd_schema"),
+    "graph": ("inspect", "cmd_graph"),
+    "plot": ("inspect", "cmd_plot"),
+    "modes": ("inspect", "cmd_modes"),
+    "studio": ("studio", "cmd_studio"),
+    "sweep": ("sweep", "cmd_sweep"),
+    "fit": ("sweep", "cmd_fit"),
 }
 
 
@@ -67,7 +68,7 @@ def _main(argv, whole_process):
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     told = args.command in ("run", "play", "plot", "check") and not getattr(args, "quiet", False)
     if told:
-        from .graph import kernel
+        from ..graph import kernel
         kernel.set_notice(_compile_notice)     # a cold compile says so at once; a cache hit says nothing
     try:
         return _command(args.command)(args)
