@@ -65,7 +65,8 @@ def _add_run(sub):
     run.add_argument("--engine", choices=("compiled", "python"), default="compiled",
                      help="compiled numba kernel (default) or the reference interpreter")
     _device_option(run)
-    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("-q", "--quiet", action="store_true",
+                     help="print nothing on success: no progress bar, no summary (errors still go to stderr)")
     run.add_argument("--subtype", metavar="PCM_16|PCM_24|FLOAT", type=str.upper,
                      help="sample format of --out, in soundfile's names (default: FLOAT for WAV and "
                           "AIFF, PCM_24 for FLAC)")
@@ -231,7 +232,8 @@ def _cluster_options(parser):
                         help="worker processes of the local Dask cluster (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
     parser.add_argument("--scheduler-file", metavar="F", help="a running Dask cluster's scheduler file")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="print nothing on success: no progress bar, no summary (errors still go to stderr)")
 
 
 def _add_sweep(sub):
@@ -249,7 +251,11 @@ def _add_sweep(sub):
     sweep.add_argument("--out", required=True, metavar="DIR", help="the results folder")
     _cluster_options(sweep)
     sweep.add_argument("--resume", action="store_true",
-                       help="continue the sweep in DIR: skip variants already ok with a whole audio file")
+                       help="continue the sweep in DIR: render only the variants with no row yet, or whose "
+                            "row says killed or timeout (one row per variant; a re-tried one replaces its row)")
+    sweep.add_argument("--retry-failed", action="store_true",
+                       help="with --resume, render again the variants whose row says runaway, invalid or error "
+                            "too (they give the same answer every time unless something changed)")
     sweep.add_argument("--limit", type=int, metavar="N", help="render at most N of the variants still to do")
     sweep.add_argument("--dry-run", action="store_true", help="check the sweep and print the variant table; render nothing")
 
