@@ -240,6 +240,7 @@ def _hints(found, rate):
             hints.append(f"largest stable tension {inst.values['tension'] * (budget - k_join) / k_own:.4g} N/m")
         else:
             hints.append("its joins alone are too stiff for it: lower their tension")
-    mass_needed = (dt * dt * k + dt * g) / STABILITY_BOUND
-    hints.append(f"smallest stable mass {mass_needed * inst.values['mass'] / m:.4g} kg")
+    mass_needed = (dt * dt * k + dt * g) / STABILITY_BOUND     # of the cell at fault
+    own_mass = is_lattice(inst) and m != inst.values["mass"]   # its own (cells:), not the lattice's
+    hints.append(f"smallest stable mass {f'of cell {label} ' if own_mass else ''}{mass_needed:.4g} kg")
     return hints

@@ -16,6 +16,7 @@ the stability refusal and compiled == interpreter.
 import itertools
 import math
 import pathlib
+import re
 
 import numpy as np
 import pytest
@@ -549,7 +550,6 @@ def test_the_cube_stencil_moves_cells_as_the_csr_lists_do(write_patch, boundary)
 
 # -- stability refusal -----------------------------------------------------------------------
 def _largest(err, what="tension"):
-    import re
     m = re.search(rf"largest stable {what} ([0-9.e+]+) N/m", err)
     return float(m.group(1))
 
@@ -590,6 +590,36 @@ def test_an_unstable_lattice_is_refused_naming_the_cell_and_the_largest_stable_t
     # the stable one really is stable: lossless energy stays bounded
     y = render(load(ok), 0.2, probes=[f"{cell}.position"]).probes[f"{cell}.position"]
     assert np.all(np.isfinite(y)) and np.max(np.abs(y)) < 1.0
+
+
+@pytest.mark.parametrize("case", ["uniform", "overridden_cell"])
+def test_the_smallest_stable_mass_hint_is_the_mass_of_the_cell_at_fault(write_patch, capsys, case):
+    """The hint names the mass to give: the lattice's `mass` when the worst cell takes it, that
+    cell's own `mass` (cells:) when it has one. Given it (plus 0.1 %) the patch passes; less is
+    refused. (Issue 33: a 1e-6 kg cell of a 1 kg lattice was told "smallest stable mass 1.4 kg".)"""
+    fs, T = 44100.0, 2.0e3
+    lattice_mass = 1.0 if case == "overridden_cell" else 5e-7
+    m_needed = 2 * T / (2 * fs * fs)          # the string's cells: Σk = 2T, dt²·Σk/m < 2
+
+    def text(cell_mass):
+        if case == "uniform":
+            return (f"hapticgraph: 1\nrate: 44100\nblocks:\n  hit: {{type: pluck}}\n"
+                    f"  L: {{type: lattice, shape: [20], mass: {cell_mass!r}, tension: {T}}}\n"
+                    f"connect:\n  - hit.out -> L[3].force\n")
+        return (f"hapticgraph: 1\nrate: 44100\nblocks:\n  hit: {{type: pluck}}\n"
+                f"  L: {{type: lattice, shape: [20], mass: {lattice_mass}, tension: {T}, "
+                f"cells: [{{index: [8], mass: {cell_mass!r}}}]}}\n"
+                f"connect:\n  - hit.out -> L[3].force\n")
+    bad = write_patch(text(1e-6 if case == "overridden_cell" else lattice_mass), name="bad.yaml")
+    assert main(["check", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    hint = float(re.search(r"smallest stable mass (?:of cell L\[8\] )?([0-9.e+-]+) kg", err).group(1))
+    assert hint == pytest.approx(m_needed, rel=1e-3), err
+    if case == "overridden_cell":
+        assert "smallest stable mass of cell L[8]" in err
+    assert main(["check", str(write_patch(text(hint * 1.001), name="ok.yaml"))]) == 0
+    assert main(["check", str(write_patch(text(hint * 0.999), name="over.yaml"))]) == 2
+    capsys.readouterr()
 
 
 # -- compiled == interpreter ------------------------------------------------------------------
