@@ -33,6 +33,8 @@ COMMANDS = {
     "studio": ("studio", "cmd_studio"),
     "sweep": ("sweep", "cmd_sweep"),
     "fit": ("sweep", "cmd_fit"),
+    "export": ("export", "cmd_export"),
+    "hid": ("hid", "cmd_hid"),
 }
 
 

@@ -23,6 +23,8 @@ def build_parser():
         add(sub)
     for add in (_add_sweep, _add_fit):      # many renders on Dask (cli/sweep.py)
         add(sub)
+    _add_export(sub)                        # the instrument outside Python (cli/export.py)
+    _add_hid(sub)                           # HID devices from their descriptors (cli/hid.py)
     return ap
 
 
@@ -278,3 +280,41 @@ def _add_fit(sub):
     fit.add_argument("--popsize", type=int, default=10, help="population per axis (default 10)")
     fit.add_argument("--maxiter", type=int, default=40, help="generations at most (default 40)")
     _cluster_options(fit)
+
+
+# -- export: the patch's kernel as C, an LV2 plugin or WebAssembly (cli/export.py) -----------------
+def _add_export(sub):
+    export = _command(sub, "export", "export a patch as C, an LV2 plugin or a WebAssembly module",
+                      "Lower the patch's program (the IR its kernel is compiled from) to plain C99 "
+                      "(NAME.h, NAME.c: NAME_new(rate), NAME_process, NAME_set, tables of ports and "
+                      "parameters), built into an LV2 bundle or a WebAssembly module with an AudioWorklet "
+                      "wrapper. Its output equals `hapticgraph run`'s. A block whose meaning calls Python "
+                      "is refused at its FILE:LINE (exit 2).",
+                      ["hapticgraph export patches/karplus_strong.yaml --to c --out build/ks",
+                       "hapticgraph export patches/karplus_strong.yaml --to lv2 --out build --install",
+                       "hapticgraph export patches/karplus_strong.yaml --to wasm --out site/ks"])
+    export.add_argument("patch")
+    export.add_argument("--to", required=True, choices=("c", "lv2", "wasm"), help="what to write")
+    export.add_argument("--out", required=True, metavar="DIR", help="the folder written into")
+    export.add_argument("--name", metavar="NAME", help="the C identifier prefix and file name "
+                                                       "(default: the patch file's name)")
+    _overrides(export)
+    export.add_argument("--install", action="store_true", help="with --to lv2: copy the bundle into ~/.lv2")
+
+
+# -- hid: what a HID device says about itself (cli/hid.py) --------------------------------------------
+def _add_hid(sub):
+    hid = _command(sub, "hid", "read HID report descriptors: describe a device, write a profile",
+                   "Parse a HID report descriptor (raw bytes, a hex dump, or a hid-recorder recording's "
+                   "R: line) and name every input from the HID usage tables (x, y, rz, slider, hat_x, "
+                   "button1, ...), as a patch's {driver: hid, match: ...} device sees it.",
+                   ["hapticgraph hid describe stick.hid",
+                    "hapticgraph hid describe stick.hid --json",
+                    "hapticgraph hid profile stick.hid > stick.yaml"])
+    action = hid.add_subparsers(dest="hid_command", required=True, metavar="ACTION")
+    describe = action.add_parser("describe", help="print the inputs and force outputs of a descriptor")
+    describe.add_argument("file", metavar="FILE", help="a descriptor: raw bytes, a hex dump or a hid-recorder recording")
+    describe.add_argument("--json", action="store_true", help="a JSON list of the fields")
+    profile = action.add_parser("profile", help="write a commented device profile from a descriptor, to edit")
+    profile.add_argument("device", metavar="DEVICE_OR_FILE",
+                         help="a descriptor file, or a connected device as VENDOR:PRODUCT (hex) or its path")
