@@ -6,7 +6,7 @@ import pytest
 
 from project_env import PATCHES
 from hapticgraph.cli import main
-from hapticgraph.graph.export import to_dot, to_mermaid
+from hapticgraph.graph.diagram import to_dot, to_mermaid
 from hapticgraph.graph.patch import load
 
 

@@ -81,7 +81,7 @@ def cmd_check(args):
 
 
 def cmd_graph(args):
-    from ..graph.export import to_dot, to_mermaid
+    from ..graph.diagram import to_dot, to_mermaid
     patch = load(args.patch)
     out = check_output("-o", args.out, input_files(patch), "command") if args.out else None
     text = (to_dot if args.format == "dot" else to_mermaid)(patch)
