@@ -77,3 +77,35 @@ def test_nothing_is_fetched_from_the_internet(site):
         fetched = re.findall(r'<(?:link|script|img)\b[^>]*(?:href|src)="(?:https?:)?//[^"]*"', text)
         assert not fetched, (page.relative_to(site), fetched)
         assert "hapticgraph-docs-" not in text, page       # the staged package's temporary folder
+
+
+def _hooks():
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "docs" / "hooks.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_links_written_for_the_repository_are_pointed_at_the_site():
+    hooks = _hooks()
+    shown = {"README.md": "index.md", "SECURITY.md": "security.md", "benchmarks/README.md": "benchmarks/index.md",
+             "benchmarks/realtime.md": "benchmarks/realtime.md"}
+    home = hooks.point_links("[a](docs/install.md#editors) ![b](docs/fig8.png) [c](SECURITY.md) "
+                             "[d](benchmarks/README.md#studio) [`e`](examples/file_plugin/) [f](docs/nope.md) "
+                             "[g](https://example.org/x.md)\n```sh\n[h](docs/install.md)\n```\n", "index.md", shown)
+    assert home.splitlines()[0] == ("[a](install.md#editors) ![b](fig8.png) [c](security.md) "
+                                    "[d](benchmarks/index.md#studio) `e` [f](docs/nope.md) "
+                                    "[g](https://example.org/x.md)")
+    assert "[h](docs/install.md)" in home                         # code is left as it is
+    page = hooks.point_links("[a](../SECURITY.md) [b](../benchmarks/realtime.md) [c](limits.md)", "live.md", shown)
+    assert page == "[a](security.md) [b](benchmarks/realtime.md) [c](limits.md)"
+    bench = hooks.point_links("[a](realtime.md) [b](../docs/architecture.md#start-up) [`c`](run_all.py)",
+                              "benchmarks/index.md", shown)
+    assert bench == "[a](realtime.md) [b](../architecture.md#start-up) `c`"
+
+
+def test_the_package_is_staged_as_installed(tmp_path):
+    _hooks().stage_package(tmp_path)
+    for module in ("__init__.py", "session.py", "graph/engine.py", "blocks/vocabulary.py", "devices/errors.py",
+                   "blocks/massspring/__init__.py", "cli/main.py", "sweeps/features.py"):
+        assert (tmp_path / "hapticgraph" / module).is_file(), module
