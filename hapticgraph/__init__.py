@@ -54,7 +54,7 @@ _LAZY = {
 }
 
 
-# module paths that name a module of a package: `hapticgraph.features` is public (README, plugins
+# module paths that name a module of a package: `hapticgraph.features` is public (docs/sweeps.md, plugins
 # register features through it); the others are the flat modules of 0.1.0, kept for one release
 PUBLIC_MODULES = {"features": "hapticgraph.sweeps.features"}
 MOVED = {

@@ -1,4 +1,4 @@
-"""The sweep file (docs in README, "Sweeps"): read with the patch loader's line-keeping YAML
+"""The sweep file (docs/sweeps.md): read with the patch loader's line-keeping YAML
 reader, every key and axis checked, the variants made by the sampler, and each variant's patch
 loaded (with its overrides) before anything is submitted, so a bad value is a `FILE:LINE` of the
 sweep file, never a failed task.

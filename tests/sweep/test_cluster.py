@@ -40,7 +40,7 @@ SCHEDULER_ENV = {"DASK_" + key.upper().replace(".", "__").replace("-", "_"): str
 
 
 def test_the_readme_gives_a_scheduler_the_settings_of_a_sweeps_own_cluster():
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "sweeps.md").read_text()
     assert all(f"{name}={value}" in readme for name, value in SCHEDULER_ENV.items()), SCHEDULER_ENV
     parsed = dask.config.collect(paths=[], env=SCHEDULER_ENV)
     for key, value in SCHEDULER_SETTINGS.items():
