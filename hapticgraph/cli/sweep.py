@@ -20,13 +20,16 @@ def cmd_sweep(args):
     _check_cluster_options(args)
     if args.limit is not None and args.limit < 0:
         raise UsageError(f"--limit {args.limit}: expected 0 or more variants")
+    if args.retry_failed and not args.resume:
+        raise UsageError("--retry-failed renders again the failed variants of a sweep it resumes: give --resume too")
     spec = load_spec(args.sweep)
     if args.dry_run:
         print_table(spec)
         return 0
     try:
         rows = sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler,
-                     scheduler_file=args.scheduler_file, resume=args.resume, limit=args.limit,
+                     scheduler_file=args.scheduler_file, resume=args.resume, retry_failed=args.retry_failed,
+                     limit=args.limit,
                      progress=False if args.quiet else None)
     except SweepError as exc:
         raise UsageError(str(exc)) from None

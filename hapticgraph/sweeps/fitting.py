@@ -150,7 +150,7 @@ def fit(patch, target, axes, client=None, out=None, results=None, seed=1, popsiz
         manifest.close()
     values = {a.name: a.at(float(u)) for a, u in zip(axes_list, found.x)}
     write_patch(patch, out, base, values)
-    (report or _stderr)(tally.note(0, manifest.path))
+    (report or _stderr)(tally.note(manifest.path))
     return FitResult(values=values, distance=float(found.fun), evaluations=len(tally.rows), patch_path=out,
                      rows=manifest.table())
 

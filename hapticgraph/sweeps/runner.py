@@ -15,7 +15,7 @@ import sys
 import time
 import uuid
 
-from .manifest import Manifest, SweepError
+from .manifest import SAME_EACH_TIME, Manifest, SweepError, distinct
 from .spec import SweepSpec, load_spec
 from .worker import render_variant
 
@@ -30,23 +30,38 @@ SCHEDULER_SETTINGS = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES
 
 
 def sweep(spec_or_path, out, client=None, workers=None, scheduler=None, scheduler_file=None, resume=False,
-          limit=None, progress=None, report=None):
+          limit=None, progress=None, report=None, retry_failed=False):
     """Render every variant of a sweep (a SweepSpec or a sweep file's path) into the folder `out`.
 
     `client`: a dask.distributed Client to use; else `scheduler` (an address) or `scheduler_file`
     names a running cluster, else a LocalCluster of `workers` processes (default: one per core) is
-    started and stopped. `resume` skips variants already `ok` with a whole audio file; `limit`
-    renders at most that many of those still to do. `report(text)` receives the dashboard link
-    and the closing note (default: standard error). Returns the manifest's rows of this sweep
-    (the last of each variant): a pandas DataFrame when pandas is installed, else a list of dicts.
-    Raises PatchError (FILE:LINE of the sweep file) before anything runs if a value is wrong.
+    started and stopped. `resume` continues the sweep of `out`: it renders the variants with no row
+    yet and those whose row says `killed`, `timeout` or an `error` the cluster lost (no worker
+    gave it), and keeps the rows that say `ok` (with a whole audio file), `runaway`, `invalid` or
+    a worker's `error`: they give the same answer every time. `retry_failed` (with `resume`)
+    renders those runaway, invalid and error variants again too. A variant rendered again replaces
+    its row: the manifest keeps one row per variant id. `limit` renders at most that many of the
+    variants still to do. `report(text)` receives the dashboard link and the closing note
+    (default: standard error). Returns the manifest's rows of this sweep, one per variant id, in
+    variant order: a pandas DataFrame when pandas is installed, else a list of dicts.
+    Raises PatchError (FILE:LINE of the sweep file) before anything runs if a value is wrong,
+    SweepError if `out` cannot be used as asked, ValueError for `retry_failed` without `resume`.
     """
+    if retry_failed and not resume:
+        raise ValueError("retry_failed renders again the failed variants of a sweep resumed: give resume=True too")
     spec = spec_or_path if isinstance(spec_or_path, SweepSpec) else load_spec(spec_or_path)
     report = report or _stderr
     manifest = Manifest(out, spec, resume)
     try:
-        todo = [v for v in spec.variants if not manifest.done(v)]
-        skipped = len(spec.variants) - len(todo)
+        for note in manifest.notes:
+            report(note)
+        todo, kept = [], {}              # kept: {status: variants left as their rows say}
+        for variant in distinct(spec.variants):
+            if manifest.settled(variant, retry_failed):
+                status = manifest.row_of(variant)["status"]
+                kept[status] = kept.get(status, 0) + 1
+            else:
+                todo.append(variant)
         if limit is not None:
             todo = todo[:max(0, int(limit))]
         if todo:
@@ -56,7 +71,7 @@ def sweep(spec_or_path, out, client=None, workers=None, scheduler=None, schedule
                 tally = submit_all(dask_client, spec, todo, manifest, progress)
         else:
             tally = Tally()
-        report(tally.note(skipped, manifest.path))
+        report(tally.note(manifest.path, kept))
     finally:
         manifest.close()
     return manifest.table()
@@ -111,13 +126,17 @@ class Tally:
     def failed(self):
         return sum(n for status, n in self.statuses.items() if status != "ok")
 
-    def note(self, skipped, path):
+    def note(self, path, kept=None):
+        """The closing note; `kept`: {status: how many variants --resume left as their rows say}."""
         done = sum(self.statuses.values())
         seconds = time.perf_counter() - self.started
-        parts = ", ".join(f"{n} {s}" for s, n in sorted(self.statuses.items())) or "nothing to do"
+        parts = ", ".join(f"{n} {s}" for s, n in sorted(self.statuses.items())) or "nothing to render"
         text = f"{done} variant(s) in {seconds:.1f} s: {parts}"
-        if skipped:
-            text += f"; {skipped} already done (skipped)"
+        if kept:
+            text += (f"; {sum(kept.values())} kept from the manifest ("
+                     + ", ".join(f"{n} {s}" for s, n in sorted(kept.items())) + ")")
+            if set(kept) & set(SAME_EACH_TIME):
+                text += " (--retry-failed renders runaway, invalid and error variants again)"
         if self.rendered:
             text += (f"; {self.kernels} kernel(s) built for {self.rendered} variant(s) rendered on "
                      f"{len(self.workers)} worker(s) ({self.compiled} compiled by numba, the rest loaded "
@@ -187,6 +206,7 @@ def _outcome(future, variant):
         return _row(variant, "killed", "its worker died while rendering it, each time it was tried, "
                                        f"the last time alone ({type(exc).__name__}: {exc})"), None
     except Exception as exc:  # noqa: BLE001 - lost by the cluster (cancelled, scheduler gone): a row
+        # with no worker, which --resume renders again (an error a worker gave is kept)
         return _row(variant, "error", f"{type(exc).__name__}: {exc}"), None
 
 
