@@ -2,6 +2,7 @@
 one by default). A bad sweep or axes file is `FILE:LINE: message` lines and exit 2 before anything
 is submitted; a variant that fails is a row of the manifest, not a failed command."""
 import json
+import sys
 
 from .common import UsageError
 from ..sweeps import SweepError, fit, load_spec, sweep
@@ -26,15 +27,20 @@ def cmd_sweep(args):
     if args.dry_run:
         print_table(spec)
         return 0
+    notes = []          # --quiet: the notes are told only when a variant failed
     try:
         rows = sweep(spec, args.out, workers=args.workers, scheduler=args.scheduler,
                      scheduler_file=args.scheduler_file, resume=args.resume, retry_failed=args.retry_failed,
-                     limit=args.limit,
-                     progress=False if args.quiet else None)
+                     limit=args.limit, progress=False if args.quiet else None,
+                     report=notes.append if args.quiet else None)
     except SweepError as exc:
         raise UsageError(str(exc)) from None
     statuses = rows["status"] if not isinstance(rows, list) else [r["status"] for r in rows]
-    return 0 if all(s == "ok" for s in statuses) else 1
+    if all(s == "ok" for s in statuses):
+        return 0
+    for note in notes:
+        print(note, file=sys.stderr)
+    return 1
 
 
 def print_table(spec):
@@ -54,9 +60,11 @@ def cmd_fit(args):
         result = fit(args.patch, args.target, args.axes, out=args.out, results=args.results,
                      seed=args.seed, popsize=args.popsize, maxiter=args.maxiter, seconds=args.seconds,
                      workers=args.workers, scheduler=args.scheduler, scheduler_file=args.scheduler_file,
-                     progress=False if args.quiet else None)
+                     progress=False if args.quiet else None, report=(lambda text: None) if args.quiet else None)
     except SweepError as exc:
         raise UsageError(str(exc)) from None
+    if args.quiet:          # the best patch is the result: written, and nothing said
+        return 0
     for name, value in result.values.items():
         print(f"{name}={value!r}")
     print(f"distance {result.distance:.6g} after {result.evaluations} evaluations; best patch -> {result.patch_path}")

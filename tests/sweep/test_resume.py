@@ -255,3 +255,19 @@ def test_manifest_parquet_has_one_row_per_id_with_the_csv_types(tmp_path):
     assert table.column("damp.gain").to_pylist() == [0.99, 0.995, 0.998]
     assert str(table.schema.field("worker").type) == "string"
     assert not [name for name in os.listdir(out) if name.endswith(".part")]
+
+
+def test_quiet_says_nothing_when_every_variant_is_ok_and_the_note_when_one_failed(tmp_path, dask_client, capsys):
+    """`-q` prints nothing on success (issue 33, item 2); when a variant failed (exit 1) the
+    closing note still goes to standard error."""
+    karplus(tmp_path)
+    good = write(tmp_path, "good.yaml", GRID.replace("[0.99, 0.998, 1.5]", "[0.99]"))
+    command = ["sweep", str(good), "--out", str(tmp_path / "good"), "--scheduler", dask_client.scheduler.address]
+    assert main(command + ["-q"]) == 0
+    said = capsys.readouterr()
+    assert (said.out, said.err) == ("", "")
+    bad = write(tmp_path, "bad.yaml", GRID)
+    assert main(["sweep", str(bad), "--out", str(tmp_path / "bad"), "--scheduler", dask_client.scheduler.address,
+                 "-q"]) == 1
+    said = capsys.readouterr()
+    assert said.out == "" and "runaway" in said.err and "variant(s)" in said.err, said.err
