@@ -99,7 +99,7 @@ def _loopback_cluster(tmp_path, workers):
 
 
 def _sweep(args, tmp_path, env):
-    done = subprocess.run([sys.executable, "-m", "hapticgraph", "sweep", str(tmp_path / "s.yaml"), "--quiet", *args],
+    done = subprocess.run([sys.executable, "-m", "hapticgraph", "sweep", str(tmp_path / "s.yaml"), *args],
                           env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     return done.stderr

@@ -70,7 +70,7 @@ def test_fit_command_line_writes_the_best_patch_and_a_bad_axes_file_exits_2(tmp_
     assert bad.returncode == 2 and bad.stderr.startswith(f"{tmp_path / 'bad.yaml'}:1: mic.pan=3.0:"), bad.stderr
     (tmp_path / "axes.yaml").write_text("damp.gain: {min: 0.99, max: 0.999}\n")
     done = subprocess.run(args + ["--axes", str(tmp_path / "axes.yaml"), "--workers", "1", "--popsize", "2",
-                                  "--maxiter", "1", "--quiet"], capture_output=True, text=True, timeout=600)
+                                  "--maxiter", "1"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith("damp.gain=0.99") and "best patch -> " in done.stdout
     fitted = hapticgraph.load(tmp_path / "ks_fit.yaml")
