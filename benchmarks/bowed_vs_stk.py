@@ -22,7 +22,7 @@ buffer, timed inside the program with std::chrono::steady_clock. Bowed::tick and
 calls are inline in STK's headers, so they are compiled here at -O3 too.
 Both sides play the same pitch (rate / the patch's 100-sample round trip: 441 Hz at 44.1 kHz),
 for the same number of samples; the reps alternate between them (so a busy machine slows both
-alike) and the best of each counts. Nothing is written outside temporary folders (the kernel
+alike) and the median of each counts (the fastest and slowest run are printed beside it). Nothing is written outside temporary folders (the kernel
 cache is the user's, as for any hapticgraph run, unless HAPTICGRAPH_CACHE says otherwise).
 """
 import argparse
@@ -31,6 +31,7 @@ import os
 import pathlib
 import platform
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -163,7 +164,7 @@ class Hapticgraph:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seconds", type=float, default=30.0, help="audio seconds per run (default 30)")
-    ap.add_argument("--reps", type=int, default=7, help="runs of each, best counts (default 7)")
+    ap.add_argument("--reps", type=int, default=7, help="runs of each, the median counts (default 7)")
     ap.add_argument("--rate", type=int, default=44100, help="sample rate (default 44100)")
     ap.add_argument("--json", action="store_true", help="also print the figures as one JSON line")
     args = ap.parse_args(argv)
@@ -171,6 +172,7 @@ def main(argv=None):
     frequency = args.rate / ROUND_TRIP
 
     import numba
+    load = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bowed-vs-stk-") as folder:
         exe, cxx_version = build_stk(folder)
         hg = Hapticgraph(patch_for(args.rate, folder), samples)
@@ -188,21 +190,22 @@ def main(argv=None):
             if not run["finite"] or not run["rms"] > 1e-6:
                 sys.exit(f"bowed_vs_stk: silent or non-finite output: {run}")
 
-    best = {name: min(r["seconds"] for r in runs)
-            for name, runs in (("stk", stk_runs), ("kernel", kernel_runs), ("render", render_runs),
-                               ("bare", bare_runs))}
-    rate = {name: samples / s for name, s in best.items()}
+    runs = {"stk": stk_runs, "kernel": kernel_runs, "render": render_runs, "bare": bare_runs}
+    median = {name: statistics.median(r["seconds"] for r in each) for name, each in runs.items()}
+    rate = {name: samples / s for name, s in median.items()}
+    spread = {name: f"({samples / max(r['seconds'] for r in each) / 1e6:.2f}-"
+                    f"{samples / min(r['seconds'] for r in each) / 1e6:.2f})" for name, each in runs.items()}
     ratio = rate["kernel"] / rate["stk"]
     cpu = benchlib.cpu_model()
     print(f"bowed string, {samples} samples ({args.seconds:g} s at {args.rate} Hz, {frequency:g} Hz), "
-          f"best of {args.reps}; {cpu}, {os.cpu_count()} CPUs; Python {platform.python_version()}, "
-          f"numba {numba.__version__}, {cxx_version}")
-    print(f"  STK Bowed (g++ -O3, tick() loop)           {rate['stk'] / 1e6:8.2f} M samples/s")
-    print(f"  hapticgraph kernel (one run, Fig. 7 patch) {rate['kernel'] / 1e6:8.2f} M samples/s"
+          f"median of {args.reps} (slowest-fastest); {cpu}, {os.cpu_count()} CPUs; Python {platform.python_version()}, "
+          f"numba {numba.__version__}, {cxx_version}; load average {load[0]:.2f} before, {os.getloadavg()[0]:.2f} after")
+    print(f"  STK Bowed (g++ -O3, tick() loop)           {rate['stk'] / 1e6:8.2f} M samples/s {spread['stk']}")
+    print(f"  hapticgraph kernel (one run, Fig. 7 patch) {rate['kernel'] / 1e6:8.2f} M samples/s {spread['kernel']}"
           f"   ({first['records']} records per sample; first compile/load {first['compile_seconds']:.2f} s)")
-    print(f"  hapticgraph render() end to end            {rate['render'] / 1e6:8.2f} M samples/s"
+    print(f"  hapticgraph render() end to end            {rate['render'] / 1e6:8.2f} M samples/s {spread['render']}"
           f"   ({rate['render'] / rate['stk']:.2f}x STK)")
-    print(f"  hapticgraph kernel, string + bow only      {rate['bare'] / 1e6:8.2f} M samples/s"
+    print(f"  hapticgraph kernel, string + bow only      {rate['bare'] / 1e6:8.2f} M samples/s {spread['bare']}"
           f"   ({rate['bare'] / rate['stk']:.2f}x STK; the device replaced by a constant bow velocity)")
     print(f"  ratio hapticgraph kernel / STK: {ratio:.2f}x  (goal >= {GOAL:g}x: "
           f"{'met' if ratio >= GOAL else 'NOT met'})")
