@@ -11,19 +11,19 @@ Figures and findings: benchmarks/bowed_vs_stk.md.
 hapticgraph: the patch with its rate set to --rate and its hand's script repeated (down-bow,
 up-bow, ...: the bow keeps moving for the whole run); load, Program, CompiledKernel (compile time
 reported apart), then ONE CompiledKernel.run over all the samples into a prefaulted recording
-(left, right and the device force per sample). The simulated device's hand trajectory is computed
-beforehand into the kernel's input columns, as its driver does chunk by chunk; the device's mass,
-the hand's spring and damper, the bow, the junction and the string are all integrated inside the
-kernel. Also reported: hapticgraph.graph.engine.render() end to end (chunks of 16384 samples, the
-driver filling the inputs and receiving the forces in numpy between chunks, the output assembled).
+(left, right and the device force per sample). The simulated device's hand follows its script
+inside the kernel; the device's mass, the hand's spring and damper, the bow, the junction and the
+string are all integrated there too. Also reported: hapticgraph.graph.engine.render() end to end
+(chunks of 16384 samples, the driver receiving the forces between chunks, the output assembled).
 STK: a C++ program written to a temporary folder and compiled with g++ -O3 against -lstk:
 Stk::setSampleRate, Bowed(50 Hz lowest), noteOn(f, 0.8), then tick() N samples into a prefaulted
 buffer, timed inside the program with std::chrono::steady_clock. Bowed::tick and everything it
 calls are inline in STK's headers, so they are compiled here at -O3 too.
 Both sides play the same pitch (rate / the patch's 100-sample round trip: 441 Hz at 44.1 kHz),
 for the same number of samples; the reps alternate between them (so a busy machine slows both
-alike) and the median of each counts (the fastest and slowest run are printed beside it). Nothing is written outside temporary folders (the kernel
-cache is the user's, as for any hapticgraph run, unless HAPTICGRAPH_CACHE says otherwise).
+alike) and the median of each counts (the slowest and fastest run are printed beside it).
+Nothing is written outside temporary folders (the kernel cache is the user's, as for any
+hapticgraph run, unless HAPTICGRAPH_CACHE says otherwise).
 """
 import argparse
 import json
@@ -198,8 +198,9 @@ def main(argv=None):
     ratio = rate["kernel"] / rate["stk"]
     cpu = benchlib.cpu_model()
     print(f"bowed string, {samples} samples ({args.seconds:g} s at {args.rate} Hz, {frequency:g} Hz), "
-          f"median of {args.reps} (slowest-fastest); {cpu}, {os.cpu_count()} CPUs; Python {platform.python_version()}, "
-          f"numba {numba.__version__}, {cxx_version}; load average {load[0]:.2f} before, {os.getloadavg()[0]:.2f} after")
+          f"median of {args.reps} (slowest-fastest); {cpu}, {os.cpu_count()} CPUs; Python "
+          f"{platform.python_version()}, numba {numba.__version__}, {cxx_version}; load average {load[0]:.2f} "
+          f"before, {os.getloadavg()[0]:.2f} after")
     print(f"  STK Bowed (g++ -O3, tick() loop)           {rate['stk'] / 1e6:8.2f} M samples/s {spread['stk']}")
     print(f"  hapticgraph kernel (one run, Fig. 7 patch) {rate['kernel'] / 1e6:8.2f} M samples/s {spread['kernel']}"
           f"   ({first['records']} records per sample; first compile/load {first['compile_seconds']:.2f} s)")
