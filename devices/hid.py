@@ -88,8 +88,10 @@ def _max_force(name, spec, profile):
 class HidDriver(Driver):
     """The Driver of one `driver: hid` device entry (see the module's doc).
 
-    `transport` (a Transport) replaces hidapi — a ReplayTransport in the tests; `profile` a
-    Profile instead of the entry's; `base` the folder a relative profile path is read from.
+    `transport` (a Transport) replaces hidapi — a ReplayTransport in the tests and for a
+    recording; `profile` the device's layout (hapticgraph.devices.hid_reports.Layout: a Profile,
+    or a DescribedDevice read from its report descriptor) instead of the entry's profile; `base`
+    the folder a relative profile path is read from.
     """
 
     block_type = None
@@ -101,7 +103,7 @@ class HidDriver(Driver):
             profile = attached(spec, "hid_profile") or _entry_profile(name, spec, base)
         self.profile = profile
         inp = profile.input
-        self.decoder = Decoder(profile)
+        self.decoder = profile.decoder()
         self.axes = list(profile.ports)
         self.columns = ("sensor_x", "sensor_v") + tuple(self.axes)
         self.max_force = _max_force(name, spec, profile)

@@ -14,6 +14,7 @@ Velocity estimate (profile `velocity: estimate`)
 """
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -157,6 +158,27 @@ class Profile:
         """The haptic block's extra output ports: every axis, then every button, in file order."""
         return tuple(f.name for f in self.input.axes) + tuple(f.name for f in self.input.buttons)
 
+    def decoder(self):
+        """A Decoder of this profile's reports (the Layout protocol)."""
+        return Decoder(self)
+
+
+class Layout(Protocol):
+    """What the HID driver reads of a device's layout: a Profile, or a device described by its
+    report descriptor (hapticgraph.devices.hid_layout.DescribedDevice)."""
+
+    name: str
+    vendor_id: int
+    product_id: int
+    input: object            # .interval [s], .timeout [s] or None, .read_size [bytes]
+    output: object           # an OutputReport, or None: nothing is sent
+    max_force: float
+
+    @property
+    def ports(self): ...
+
+    def decoder(self): ...
+
 
 # -- decoding ----------------------------------------------------------------------------------
 
@@ -222,4 +244,4 @@ class Decoder:
         return True
 
 
-__all__ = ["Decoder", "Field", "InputReport", "OutputReport", "Profile"]
+__all__ = ["Decoder", "Field", "InputReport", "Layout", "OutputReport", "Profile"]

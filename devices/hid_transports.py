@@ -11,7 +11,7 @@ from .errors import DeviceError
 from .hid_profiles import find_profile, load_profile, shipped_profiles
 
 
-def _hid_module():
+def hid_module():
     try:
         import hid
     except ImportError:
@@ -65,7 +65,7 @@ class HidapiTransport(Transport):
             f" with serial {self.serial!r}" if self.serial else "")
 
     def open(self):
-        hid = _hid_module()
+        hid = hid_module()
         dev = hid.device()
         if self.path:
             dev.open_path(self.path.encode() if isinstance(self.path, str) else self.path)
@@ -219,7 +219,7 @@ def list_hid_devices():
     """Every HID device hidapi sees (its real enumerate()), as dicts: vendor_id, product_id,
     path, serial_number, manufacturer_string, product_string, usage_page, usage,
     interface_number, release_number, and `profile`, the shipped profile with the same ids or None."""
-    hid = _hid_module()
+    hid = hid_module()
     shipped = {}
     for name in shipped_profiles():
         try:
@@ -237,4 +237,4 @@ def list_hid_devices():
     return out
 
 
-__all__ = ["HidapiTransport", "ReplayTransport", "Transport", "list_hid_devices"]
+__all__ = ["HidapiTransport", "ReplayTransport", "Transport", "hid_module", "list_hid_devices"]

@@ -1,0 +1,158 @@
+"""Finding a connected HID device by what a patch says of it, and reading its report descriptor
+through hidapi (`get_report_descriptor`; on Linux hidapi reads the hidraw node's, the same bytes
+as /sys/class/hidraw/*/device/report_descriptor):
+
+    stick: {driver: hid, match: {vendor: 0x045e, product: 0x001b}}
+    stick: {driver: hid, match: {name: "SideWinder"}}          # in the product (or maker) name
+    stick: {driver: hid, match: {usage: joystick, index: 1}}    # the second joystick
+
+`match` keys: `vendor`, `product` (USB ids), `name` (a part of the name, any case), `serial`,
+`usage` (a top-level collection: joystick, gamepad, mouse, keyboard, multi_axis, consumer, or
+PAGE:USAGE such as 0x01:0x04) and `index` (which of the devices that match, 0 the first, in
+hidapi's order). With `usage`, a device with several top-level collections (a joystick and a
+keyboard) gives the inputs of the matching collection only.
+
+`connected()` is what `hapticgraph devices` shows: every device hidapi sees, with its usable
+inputs and whether it has force feedback (read from its descriptor).
+"""
+from dataclasses import dataclass
+
+from . import hid_transports
+from .errors import DeviceError
+from .hid_descriptor import DescriptorError, parse
+from .hid_usages import application_label, application_usage
+
+MATCH_KEYS = ("vendor", "product", "name", "serial", "usage", "index")
+
+
+class MatchError(DeviceError):
+    """No connected device matches, or its descriptor cannot be read."""
+
+
+@dataclass(frozen=True)
+class Found:
+    """A connected device a match chose: its hidapi entry, descriptor and collection (or None)."""
+
+    info: dict
+    descriptor: object          # a Descriptor
+    collection: int = None
+
+    @property
+    def path(self):
+        return self.info.get("path")
+
+    @property
+    def name(self):
+        return " ".join(x for x in (self.info.get("manufacturer_string"), self.info.get("product_string")) if x)
+
+
+def _text(value):
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else value
+
+
+def _entries():
+    """hidapi's enumerate(), one entry per device path (Linux lists a path once per collection)."""
+    hid = hid_transports.hid_module()
+    out, seen = [], set()
+    for info in hid.enumerate():
+        entry = {k: _text(v) for k, v in dict(info).items()}
+        if entry.get("path") in seen:
+            continue
+        seen.add(entry.get("path"))
+        out.append(entry)
+    return out
+
+
+def read_descriptor(path):
+    """The report descriptor bytes of the device at hidapi path `path` (MatchError if unreadable)."""
+    hid = hid_transports.hid_module()
+    dev = hid.device()
+    try:
+        dev.open_path(path.encode() if isinstance(path, str) else path)
+        try:
+            return bytes(dev.get_report_descriptor())
+        finally:
+            dev.close()
+    except (OSError, ValueError) as exc:
+        raise MatchError(f"cannot read the report descriptor of the HID device at {path}: {exc}") from None
+
+
+def _wanted(entry, match):
+    if "vendor" in match and entry.get("vendor_id") != match["vendor"]:
+        return False
+    if "product" in match and entry.get("product_id") != match["product"]:
+        return False
+    if "serial" in match and (entry.get("serial_number") or "") != str(match["serial"]):
+        return False
+    if "name" in match:
+        name = f"{entry.get('manufacturer_string') or ''} {entry.get('product_string') or ''}".lower()
+        if str(match["name"]).lower() not in name:
+            return False
+    return True
+
+
+def describe_match(match):
+    parts = []
+    for key in MATCH_KEYS:
+        if key in match:
+            v = match[key]
+            parts.append(f"{key}: 0x{v:04x}" if key in ("vendor", "product") and isinstance(v, int) else f"{key}: {v!r}")
+    return "{" + ", ".join(parts) + "}"
+
+
+def find(match):
+    """The Found device `match` names (see the module's doc); MatchError if there is none."""
+    usage = None
+    if "usage" in match:
+        usage = application_usage(match["usage"])
+        if usage is None:
+            raise MatchError(f"match usage {match['usage']!r} is not a collection (joystick, gamepad, mouse, "
+                             f"keyboard, multi_axis, consumer, or PAGE:USAGE such as 0x01:0x04)")
+    entries = _entries()
+    candidates = []
+    for entry in entries:
+        if not _wanted(entry, match):
+            continue
+        if usage is None:
+            candidates.append((entry, None))
+            continue
+        desc = _parse(entry)
+        for k, (_, page, u) in enumerate(desc.applications):
+            if (page, u) == usage:
+                candidates.append((entry, (desc, k)))
+    index = int(match.get("index", 0))
+    if index >= len(candidates):
+        seen = "; ".join(f"{e.get('vendor_id', 0):04x}:{e.get('product_id', 0):04x} "
+                         f"{e.get('product_string') or '?'}" for e in entries) or "none"
+        which = f" (index {index}: {len(candidates)} match)" if candidates else ""
+        raise MatchError(f"no connected HID device matches {describe_match(match)}{which}; connected: {seen}")
+    entry, chosen = candidates[index]
+    if chosen is None:
+        return Found(entry, _parse(entry))
+    return Found(entry, chosen[0], chosen[1])
+
+
+def _parse(entry):
+    try:
+        return parse(read_descriptor(entry["path"]))
+    except DescriptorError as exc:
+        raise MatchError(f"the HID device at {entry['path']}: {exc}") from None
+
+
+def connected():
+    """Every device hidapi sees, as its entry plus `inputs` (port names), `collections` and
+    `force_feedback` from its descriptor (`descriptor_error` instead if it cannot be read)."""
+    out = []
+    for entry in _entries():
+        try:
+            desc = _parse(entry)
+        except MatchError as exc:
+            out.append({**entry, "inputs": [], "collections": [], "force_feedback": False,
+                        "descriptor_error": str(exc)})
+            continue
+        out.append({**entry, "inputs": list(desc.ports), "force_feedback": desc.force_feedback,
+                    "collections": [application_label(p, u) for _, p, u in desc.applications]})
+    return out
+
+
+__all__ = ["Found", "MATCH_KEYS", "MatchError", "connected", "describe_match", "find", "read_descriptor"]

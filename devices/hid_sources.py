@@ -1,0 +1,54 @@
+"""Where the layout of a `driver: hid` entry without a profile comes from:
+
+    stick: {driver: hid, recording: take.hid}          a hid-recorder recording (relative to the patch)
+    stick: {driver: hid, match: {vendor: 0x045e}}      a connected device (hapticgraph.devices.hid_match)
+
+Either gives a DescribedDevice (hapticgraph.devices.hid_layout) read from the report descriptor:
+the recording's `R:` line, or the device's own. A recording plays its `E:` lines at their times
+through a ReplayTransport in virtual time (deterministic: every sample gets the report stamped
+at or before it); a matched device is opened by its hidapi path.
+"""
+import os
+
+from .errors import DeviceError
+from .hid_descriptor import DescriptorError
+from .hid_layout import DescribedDevice
+from .hid_match import find
+from .hid_recording import RecordingError, load_recording
+from .hid_transports import HidapiTransport, ReplayTransport
+
+
+def recording_path(ref, base):
+    ref = os.fspath(ref)
+    return ref if os.path.isabs(ref) else os.path.join(base or os.getcwd(), ref)
+
+
+def from_recording(ref, base=None):
+    """(DescribedDevice, Recording) of a recording file; RecordingError or DescriptorError."""
+    rec = load_recording(recording_path(ref, base))
+    layout = DescribedDevice(rec.descriptor, rec.name, rec.vendor_id, rec.product_id, rec.interval(),
+                             source=rec.path)
+    return layout, rec
+
+
+def from_match(match):
+    """(DescribedDevice, hidapi path) of the connected device `match` names; MatchError."""
+    found = find(match)
+    layout = DescribedDevice(found.descriptor, found.name, found.info.get("vendor_id", 0),
+                             found.info.get("product_id", 0), collection=found.collection, source=str(found.path))
+    return layout, found.path
+
+
+def open_source(name, spec, base=None):
+    """(layout, transport) of an entry with `recording:` or `match:`; DeviceError if it cannot be had."""
+    if spec.get("recording") is not None:
+        try:
+            layout, rec = from_recording(spec["recording"], base)
+        except (RecordingError, DescriptorError) as exc:
+            raise DeviceError(f"device {name!r}: {exc}") from None
+        return layout, ReplayTransport(rec.events, end="silent", virtual=True)
+    layout, path = from_match(spec["match"])
+    return layout, HidapiTransport(layout.vendor_id, layout.product_id, path=path)
+
+
+__all__ = ["from_match", "from_recording", "open_source", "recording_path"]
