@@ -140,10 +140,15 @@ def _parse(entry):
 
 
 def connected():
-    """Every device hidapi sees, as its entry plus `inputs` (port names), `collections` and
-    `force_feedback` from its descriptor (`descriptor_error` instead if it cannot be read)."""
-    out = []
-    for entry in _entries():
+    """Every device hidapi sees (hapticgraph.devices.hid_transports.list_hid_devices: its ids,
+    path, names and the shipped profile with its ids), one entry per path, with `inputs` (its
+    port names), `collections` and `force_feedback` read from its descriptor, or
+    `descriptor_error` when the descriptor cannot be read (a device another program holds)."""
+    out, seen = [], set()
+    for entry in hid_transports.list_hid_devices():
+        if entry.get("path") in seen:
+            continue
+        seen.add(entry.get("path"))
         try:
             desc = _parse(entry)
         except MatchError as exc:
@@ -155,4 +160,22 @@ def connected():
     return out
 
 
-__all__ = ["Found", "MATCH_KEYS", "MatchError", "connected", "describe_match", "find", "read_descriptor"]
+def device_lines(devices):
+    """`hapticgraph devices`' lines for the HID devices `connected()` gives."""
+    lines = []
+    for d in devices:
+        name = " ".join(x for x in (d.get("manufacturer_string"), d.get("product_string")) if x) or "?"
+        extra = f"  profile {d['profile']}" if d.get("profile") else ""
+        lines.append(f"  {d.get('vendor_id', 0):04x}:{d.get('product_id', 0):04x}  {name}  {d.get('path', '')}{extra}")
+        if d.get("descriptor_error"):
+            lines.append(f"      inputs: unknown ({d['descriptor_error']})")
+            continue
+        inputs = d["inputs"]
+        shown = ", ".join(inputs[:24]) + (f", … ({len(inputs)} in all)" if len(inputs) > 24 else "")
+        lines.append(f"      {', '.join(d['collections']) or 'no collection'}; inputs: {shown or 'none'}; "
+                     f"force feedback: {'yes (HID PID)' if d['force_feedback'] else 'no'}")
+    return lines
+
+
+__all__ = ["Found", "MATCH_KEYS", "MatchError", "connected", "describe_match", "device_lines", "find",
+           "read_descriptor"]
