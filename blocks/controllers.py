@@ -8,22 +8,28 @@ from .vocabulary import Block, External, Out, Param, State
 DEVICE_DOC = "the name of a controller entry under devices: (driver midi or osc)"
 A4 = 69.0          # MIDI note number of 440 Hz
 MAX_VOICES = 128   # a polyphonic group's largest size: one voice per MIDI key
+MPE_MODES = ("off", "lower", "upper", "auto")
 
 
 class MidiNote(Block, name="midi_note"):
-    """freq = 440·2^((note − 69 + bend·bend_range)/12); gate, velocity, pressure as received (last-note priority, or voice `voice` of `voices` allocated)."""
+    """freq = 440·2^((note − 69 + bend·bend_range + detune)/12); gate, velocity, pressure, slide as received (last-note priority, or voice `voice` of `voices` allocated; `mpe`: per-note bend, pressure and slide)."""
 
     g = Out(name="gate", doc="1 while a key is held, else 0")
     f = Out(name="freq", doc="the sounding note's frequency, pitch bend applied [Hz] (440 before any note)")
     vel = Out(name="velocity", doc="the sounding note's on-velocity, 0–1")
     press = Out(name="pressure", doc="channel or key pressure (aftertouch), 0–1")
+    sl = Out(name="slide", doc="CC 74 (MPE: the note's own, its slide) / 127, 0–1; 64/127 until one is received")
     device = Param("", refers="controller", doc=DEVICE_DOC)
     channel = Param(0, minimum=0, maximum=16, doc="MIDI channel 1–16; 0: omni (every channel)")
-    bend_range = Param(2.0, unit="semitones", minimum=0.0, maximum=48.0, doc="pitch bend at full deflection")
+    bend_range = Param(2.0, unit="semitones", minimum=0.0, maximum=48.0,
+                       doc="pitch bend at full deflection (not used with mpe: the zone's ranges are)")
     voice = Param(0, minimum=0, maximum=MAX_VOICES, refers="voice",
                   doc="0: the keyboard's newest key; k ≥ 1: voice k of a polyphonic group (set by a voices: template)")
     voices = Param(1, minimum=1, maximum=MAX_VOICES, refers="voices",
                    doc="the group's number of voices: free voice first, else the oldest note is stolen")
+    mpe = Param("off", choices=MPE_MODES,
+                doc="MPE keyboards: the lower zone (master channel 1), the upper (master 16), or auto: "
+                    "the zones the MPE Configuration Messages set up")
     notes = """Notes and voices (hapticgraph.devices.voices): a note belongs to its channel and key; a
 note-off (or a note-on of velocity 0, or all-notes-off of its channel) ends that note only, so
 two channels on one key are two notes. With `voices: N` (a `voices:` template), a note-on takes
@@ -35,26 +41,51 @@ when it takes a new note (restruck, stolen) shows the onset with a one-sample di
 gate 0 at the sample before the note-on, 1 from the note-on's sample, so a pluck or an envelope
 starts again on time. A note-off and a note-on at one sample, in either order, leave the new
 note sounding (the note-off ends the note begun earlier; a note struck and released at one
-sample sounds for that sample). Pitch bend and channel pressure reach the voices of their
+sample sounds for that sample). Pitch bend, channel pressure and CC 74 reach the voices of their
 channel, key pressure the voice holding the key. With `voice: 0` the block follows the newest
 note held (a release falls back to the newest still held, legato). A file, a live port and a
 replayed take give the same columns for the same events: a live event is placed within its
-block (a latency of one block and one sample) and a file is read one sample ahead."""
+block (a latency of one block and one sample) and a file is read one sample ahead. `slide` is
+CC 74 of the note's channel / 127 (64/127, the middle, until one arrives).
+
+MPE (hapticgraph.devices.mpe; `mpe: lower|upper|auto` in a voices: template, channel 0): each
+note on a channel of the zone is a voice. A note on a member channel sounds its key plus its
+channel's bend times the members' range (±48 semitones) plus the master channel's bend times
+the master's range (±2); RPN 0 on the master channel sets the master's range, on a member
+channel every member's. Its pressure (channel pressure) and slide (CC 74) are its channel's, or
+the master channel's when that spoke last; a note-on takes its channel's values, which return to
+0, 0 and 64/127 when the channel's last note ends. A released note keeps its own bend, pressure
+and slide (what its channel sends next sets up the channel's next note); the master channel
+still reaches it. The lower zone is master channel 1 and members 2 … N+1, the upper master 16
+and members 15 … 16−N; N = 15 (`lower`, `auto`: the lower zone; `upper`: the upper) until an MPE
+Configuration Message (RPN 6 on a master channel; 0 members: no zone) says otherwise; a zone
+that takes the other's channels shrinks it, and the notes of channels that change zone end. A
+note on the master channel sounds the master's bend alone and takes key pressure; all-notes-off
+on the master channel ends every note of the zone. At one sample: RPN first, then notes, then
+bend, pressure and slide."""
     midi_gate = External(doc="1 while a key is held")
     midi_note = External(doc="the sounding note number (last-note priority)")
     midi_bend = External(doc="pitch wheel, −1 … 1")
     midi_velocity = External(doc="on-velocity / 127")
     midi_pressure = External(doc="aftertouch / 127")
+    midi_slide = External(doc="CC 74 / 127")
+    midi_detune = External(doc="MPE: the note's member and master channel bends, each times its range [semitones]")
 
     @classmethod
     def check(cls, p, fs):
         if p.voice > p.voices:
             yield "voice", f"voice {p.voice} of a group of {p.voices}: voices are numbered 1 … {p.voices}"
+        if p.mpe != "off" and p.voice == 0:
+            yield "mpe", (f"mpe: {p.mpe} plays each note as a voice: put this midi_note in a voices: template "
+                          "(count: 1 for one voice)")
+        if p.mpe != "off" and p.channel != 0:
+            yield "channel", f"with mpe: {p.mpe} the zone says which channels play: leave channel 0"
 
     @staticmethod
-    def output(midi_gate, midi_note, midi_bend, midi_velocity, midi_pressure, bend_range):
-        freq = 440.0 * math.pow(2.0, (midi_note - A4 + midi_bend * bend_range) / 12.0)
-        return midi_gate, freq, midi_velocity, midi_pressure
+    def output(midi_gate, midi_note, midi_bend, midi_velocity, midi_pressure, midi_slide, midi_detune,
+               bend_range):
+        freq = 440.0 * math.pow(2.0, (midi_note - A4 + midi_bend * bend_range + midi_detune) / 12.0)
+        return midi_gate, freq, midi_velocity, midi_pressure, midi_slide
 
 
 class MidiCC(Block, name="midi_cc"):

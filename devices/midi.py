@@ -6,6 +6,10 @@
     blocks:
       note: {type: midi_note, device: keys, channel: 0, bend_range: 2}
       cut:  {type: midi_cc, device: keys, number: 74, min: 200, max: 8000, curve: exponential}
+    voices:                                          # an MPE keyboard (hapticgraph.devices.mpe)
+      count: 8
+      blocks:
+        key: {type: midi_note, device: keys, mpe: lower}
 
 A file's events take effect at the first sample at or after their time, computed exactly from
 the ticks and the tempo map (fractions, no rounding), so a note starts at its exact sample in any
@@ -20,7 +24,8 @@ from fractions import Fraction
 
 from .errors import DeviceError
 from .events import Hub, Tap
-from .voices import CHANNEL_MESSAGES, Allocator, VoiceTap, resolve
+from .mpe import MIDDLE, Zones
+from .voices import CHANNEL_MESSAGES, COLUMNS, SLIDE, SLIDE_CC, Allocator, VoiceTap, resolve
 
 DEFAULT_TEMPO = 500000      # µs per beat: 120 beats per minute, the Standard MIDI File default
 APIS = {"auto": None, "jack": "UNIX_JACK", "alsa": "LINUX_ALSA"}
@@ -179,7 +184,7 @@ class MidiHub(Hub):
     def __init__(self, name, spec):
         super().__init__(name)
         self.file, self.reader = spec.get("file"), None
-        self.allocators = {}      # (channel, voices) -> the Allocator polyphonic midi_note blocks share
+        self.allocators = {}      # (channel, voices, mpe) -> the Allocator polyphonic midi_note blocks share
         if spec.get("port") is not None:
             self.reader = PortReader(self, spec["port"], spec.get("api", "auto"))
         elif self.file is None:
@@ -205,11 +210,12 @@ class MidiHub(Hub):
         """The driver of a block that names this device."""
         return TAPS[inst.cls.type_name](self, inst)
 
-    def allocator(self, channel, count):
-        """The voice allocator of a polyphonic group (hapticgraph.devices.voices), shared."""
-        key = (channel, count)
+    def allocator(self, channel, count, mpe="off"):
+        """The voice allocator of a polyphonic group (hapticgraph.devices.voices), shared; `mpe`:
+        off, or the zones it plays (hapticgraph.devices.mpe)."""
+        key = (channel, count, mpe)
         if key not in self.allocators:
-            self.allocators[key] = Allocator(self, channel, count)
+            self.allocators[key] = Allocator(self, channel, count, None if mpe == "off" else Zones(mpe))
         return self.allocators[key]
 
 
@@ -220,21 +226,21 @@ def _channel_of(inst):
 
 class NoteTap(Tap):
     """midi_note: last-note priority over the notes held, each a (channel, key) (a release falls
-    back to the newest note still held, legato), pitch bend of the sounding note's channel,
-    velocity, channel and key pressure. Events at one sample are resolved as the voice allocator
-    does (hapticgraph.devices.voices.resolve)."""
+    back to the newest note still held, legato), pitch bend and slide (CC 74) of the sounding
+    note's channel, velocity, channel and key pressure. Events at one sample are resolved as the
+    voice allocator does (hapticgraph.devices.voices.resolve)."""
 
-    columns = ("midi_gate", "midi_note", "midi_bend", "midi_velocity", "midi_pressure")
+    columns = COLUMNS
 
     def __init__(self, hub, inst):
         self.channel = _channel_of(inst)
         super().__init__(hub, inst)
 
     def reset(self):
-        self.row[:] = (0.0, 69.0, 0.0, 0.0, 0.0)
+        self.row[:] = (0.0, 69.0, 0.0, 0.0, 0.0, MIDDLE, 0.0)
         self.held = []                 # (channel, key), oldest first
         self.ends = {}                 # (channel, key) -> the sample a note struck and released at one sample ends
-        self.bend, self.sounding = [0.0] * 16, None
+        self.bend, self.slide, self.sounding = [0.0] * 16, [MIDDLE] * 16, None
 
     def fill(self, t0, ext):
         due = {}
@@ -273,6 +279,8 @@ class NoteTap(Tap):
         for m in messages:
             if m.type == "pitchwheel":
                 self.bend[m.channel] = m.pitch / 8192.0
+            elif m.type == "control_change" and m.control == SLIDE_CC:
+                self.slide[m.channel] = m.value / 127.0
             elif m.type == "aftertouch" and m.channel == self.sounding or (
                     m.type == "polytouch" and held and (m.channel, m.note) == held[-1]):
                 row[4] = m.value / 127.0
@@ -282,7 +290,7 @@ class NoteTap(Tap):
         else:
             row[0] = 0.0
         if self.sounding is not None:
-            row[2] = self.bend[self.sounding]
+            row[2], row[SLIDE] = self.bend[self.sounding], self.slide[self.sounding]
 
     def _drop(self, note):
         self.ends.pop(note, None)
@@ -306,9 +314,10 @@ class ControlTap(Tap):
 
 
 def note_tap(hub, inst):
-    """midi_note's tap: last-note priority, or voice `voice` of a group of `voices`."""
+    """midi_note's tap: last-note priority, or voice `voice` of a group of `voices` (MPE: `mpe`)."""
     if int(inst.values.get("voice", 0)) > 0:
-        return VoiceTap(hub, inst, hub.allocator(_channel_of(inst), int(inst.values.get("voices", 1))))
+        return VoiceTap(hub, inst, hub.allocator(_channel_of(inst), int(inst.values.get("voices", 1)),
+                                                 inst.values.get("mpe", "off")))
     return NoteTap(hub, inst)
 
 

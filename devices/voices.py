@@ -21,15 +21,26 @@ allocator looks one sample ahead; hapticgraph.devices.events). Events at one sam
 whatever their order in the file: a note-off there ends the note of its channel and key that
 began earlier, else one struck at that sample (which then sounds for that one sample); so a
 note-off and a note-on of one key at one sample leave the new note sounding.
-Pitch bend and channel pressure reach every voice of their channel; key pressure the voice
-holding the key; all-notes-off (CC 123) and all-sound-off (CC 120) release every note of their
-channel.
+Pitch bend, channel pressure and CC 74 (slide) reach every voice of their channel; key pressure
+the voice holding the key; all-notes-off (CC 123) and all-sound-off (CC 120) release every note
+of their channel.
+
+MPE (`mpe: lower|upper|auto`: an Allocator given Zones, hapticgraph.devices.mpe): the notes of
+the played zones' channels only. A note's detune is its own bend (its member channel's, while the
+note is held) plus its zone master's; its pressure and slide are set by its member channel while
+held and by the master channel always; a note-on takes its channel's values, and the channel's
+last note ending resets them. At one sample: the RPN messages first (an MPE Configuration Message
+that moves channels between zones ends their notes), then the notes, then the rest. All-notes-off
+on a master channel ends every note of its zone.
 """
 import numpy as np
 
 from .events import Tap
+from .mpe import MIDDLE, RPN_CONTROLS
 
-GATE, NOTE, BEND, VELOCITY, PRESSURE = range(5)
+GATE, NOTE, BEND, VELOCITY, PRESSURE, SLIDE, DETUNE = range(7)
+COLUMNS = ("midi_gate", "midi_note", "midi_bend", "midi_velocity", "midi_pressure", "midi_slide", "midi_detune")
+SLIDE_CC = 74
 ALL_OFF = (120, 123)
 CHANNEL_MESSAGES = frozenset(("note_on", "note_off", "polytouch", "control_change", "program_change",
                               "aftertouch", "pitchwheel"))
@@ -70,24 +81,30 @@ def _end(channel, keys, held, ended, struck, short):
 
 
 class Allocator:
-    """The notes of one channel (None: every channel) shared among `count` voices."""
+    """The notes of one channel (None: every channel) shared among `count` voices; with `zones`
+    (hapticgraph.devices.mpe.Zones), the notes of an MPE zone."""
 
-    def __init__(self, hub, channel, count):
-        self.hub, self.channel, self.count = hub, channel, count
+    def __init__(self, hub, channel, count, zones=None):
+        self.hub, self.channel, self.count, self.zones = hub, channel, count, zones
         self.reset()
 
     def reset(self):
         n = self.count
-        self.rows = np.zeros((n, 5))
+        self.rows = np.zeros((n, len(COLUMNS)))
         self.rows[:, NOTE] = 69.0
+        self.rows[:, SLIDE] = MIDDLE
+        if self.zones is not None:
+            self.zones.reset()
+        self.zone_of = [None] * n        # MPE: the zone of each voice's note
+        self.own = [0.0] * n             # MPE: each voice's own bend [semitones]
         self.owner = [None] * n          # the (channel, key) each voice sounds, held or ringing
         self.held = [False] * n
         self.since = list(range(-n, 0))  # event count at the voice's note-on (held) or release (free)
         self.clock = 0
         self.ends = {}                   # voice -> the absolute sample its one-sample note ends
-        self.bend, self.pressure = [0.0] * 16, [0.0] * 16
+        self.bend, self.pressure, self.slide = [0.0] * 16, [0.0] * 16, [MIDDLE] * 16
         self.done = -1                   # the last absolute sample whose events are applied
-        self._block, self.cols = None, np.zeros((n, 0, 5))
+        self._block, self.cols = None, np.zeros((n, 0, len(COLUMNS)))
 
     def voice_for(self, note):
         """The voice a note-on of `note` (channel, key) takes (see the module's doc)."""
@@ -104,6 +121,8 @@ class Allocator:
         before = rows[:, GATE].copy()
         for v in [v for v, end in self.ends.items() if end <= at]:
             self._release(v)
+        if self.zones is not None:
+            messages = self._zone_messages(messages)
         held = {self.owner[v] for v in range(self.count) if self.held[v]}
         ended, struck, short = resolve(messages, held)
         for note in ended:
@@ -111,7 +130,7 @@ class Allocator:
         dips = []
         for note, m in struck.items():
             v = self.voice_for(note)
-            rows[v] = (1.0, m.note, self.bend[m.channel], m.velocity / 127.0, 0.0)
+            self._strike(v, m)
             self.owner[v], self.held[v], self.since[v] = note, True, self.clock
             self.ends.pop(v, None)
             self.clock += 1
@@ -123,8 +142,22 @@ class Allocator:
             self._control(m)
         return dips
 
+    def _strike(self, v, m):
+        """Voice v takes note-on `m`: its channel's values at this sample."""
+        c, zones = m.channel, self.zones
+        if zones is None:
+            self.rows[v] = (1.0, m.note, self.bend[c], m.velocity / 127.0, 0.0, self.slide[c], 0.0)
+            return
+        z = zones.zone_of(c)
+        self.zone_of[v], self.own[v] = z, zones.own(c)
+        self.rows[v] = (1.0, m.note, 0.0, m.velocity / 127.0, zones.pressure[c], zones.slide[c],
+                        self.own[v] + zones.common(z))
+
     def _control(self, m):
-        """Pitch bend, channel and key pressure."""
+        """Pitch bend, channel and key pressure, slide (CC 74)."""
+        if self.zones is not None:
+            self._expression(m)
+            return
         rows, kind = self.rows, m.type
         if kind == "pitchwheel":
             self.bend[m.channel] = m.pitch / 8192.0
@@ -132,19 +165,89 @@ class Allocator:
         elif kind == "aftertouch":
             self.pressure[m.channel] = m.value / 127.0
             rows[self._voices_of(m.channel), PRESSURE] = self.pressure[m.channel]
+        elif kind == "control_change" and m.control == SLIDE_CC:
+            self.slide[m.channel] = m.value / 127.0
+            rows[self._voices_of(m.channel), SLIDE] = self.slide[m.channel]
         elif kind == "polytouch":
-            for v in range(self.count):
-                if self.held[v] and self.owner[v] == (m.channel, m.note):
-                    rows[v, PRESSURE] = m.value / 127.0
+            self._key_pressure(m)
+
+    def _key_pressure(self, m):
+        for v in range(self.count):
+            if self.held[v] and self.owner[v] == (m.channel, m.note):
+                self.rows[v, PRESSURE] = m.value / 127.0
 
     def _voices_of(self, channel):
         return [v for v in range(self.count) if self.owner[v] is not None and self.owner[v][0] == channel]
+
+    # -- MPE -------------------------------------------------------------------------------------
+    def _zone_messages(self, messages):
+        """Apply the sample's RPN messages (in order); the rest that concern the played zones,
+        all-notes-off on a master channel spread over its zone's channels."""
+        zones, out = self.zones, []
+        for m in messages:
+            if m.type == "control_change" and m.control in RPN_CONTROLS:
+                moved = zones.configure(m)
+                if moved is None:
+                    self._retune()
+                for v in range(self.count):
+                    if self.held[v] and self.owner[v][0] in (moved or ()):
+                        self._release(v)
+            elif zones.zone_of(m.channel) is not None:
+                if m.type == "control_change" and m.control in ALL_OFF and zones.is_master(m.channel):
+                    out += [m.copy(channel=c) for c in zones.channels(zones.zone_of(m.channel))]
+                else:
+                    out.append(m)
+        return out
+
+    def _expression(self, m):
+        """MPE: bend, channel pressure and slide of a member channel reach its held notes, of a
+        master channel every note of its zone; key pressure the note it names."""
+        zones, rows, c, kind = self.zones, self.rows, m.channel, m.type
+        column = {"pitchwheel": DETUNE, "aftertouch": PRESSURE}.get(kind)
+        if kind == "control_change" and m.control == SLIDE_CC:
+            column = SLIDE
+        if column is None:
+            if kind == "polytouch":
+                self._key_pressure(m)
+            return
+        if kind == "pitchwheel":
+            zones.bend[c] = m.pitch / 8192.0
+        elif kind == "aftertouch":
+            zones.pressure[c] = m.value / 127.0
+        else:
+            zones.slide[c] = m.value / 127.0
+        master, z = zones.is_master(c), zones.zone_of(c)
+        if master:
+            voices = [v for v in range(self.count) if self.owner[v] is not None and self.zone_of[v] == z]
+        else:
+            voices = [v for v in range(self.count) if self.held[v] and self.owner[v][0] == c]
+        if column == DETUNE:
+            for v in voices:
+                if not master:
+                    self.own[v] = zones.own(c)
+                rows[v, DETUNE] = self.own[v] + zones.common(self.zone_of[v])
+        else:
+            rows[voices, column] = zones.pressure[c] if column == PRESSURE else zones.slide[c]
+
+    def _retune(self):
+        """A bend range changed: every held note's own bend, and every note's master part, again."""
+        zones = self.zones
+        for v in range(self.count):
+            if self.owner[v] is None or self.zone_of[v] is None:
+                continue
+            if self.held[v] and zones.zone_of(self.owner[v][0]) == self.zone_of[v]:
+                self.own[v] = zones.own(self.owner[v][0])
+            self.rows[v, DETUNE] = self.own[v] + zones.common(self.zone_of[v])
 
     def _release(self, v):
         self.held[v], self.since[v] = False, self.clock
         self.clock += 1
         self.rows[v, GATE] = 0.0
         self.ends.pop(v, None)
+        channel = self.owner[v][0]
+        if self.zones is not None and not self.zones.is_master(channel) and not any(
+                self.held[u] and self.owner[u][0] == channel for u in range(self.count)):
+            self.zones.clear(channel)
 
     def _mine(self, m):
         return m.type in CHANNEL_MESSAGES and (self.channel is None or m.channel == self.channel)
@@ -165,12 +268,12 @@ class Allocator:
         return due
 
     def block(self, t0, n):
-        """Every voice's columns for samples t0 … t0+n−1: a count × n × 5 array, each voice's
-        rows contiguous (computed once per block, whichever voice asks first)."""
+        """Every voice's columns for samples t0 … t0+n−1: a count × n × len(COLUMNS) array, each
+        voice's rows contiguous (computed once per block, whichever voice asks first)."""
         if self._block == (t0, n):
             return self.cols
         if self.cols.shape[1] != n:
-            self.cols = np.zeros((self.count, n, 5))
+            self.cols = np.zeros((self.count, n, len(COLUMNS)))
         cols, cursor, due = self.cols, 0, self._due(t0, n)
         while due:
             i = min(due)
@@ -191,7 +294,7 @@ class Allocator:
 class VoiceTap(Tap):
     """midi_note with `voice: k` (k ≥ 1): voice k's columns from its group's Allocator."""
 
-    columns = ("midi_gate", "midi_note", "midi_bend", "midi_velocity", "midi_pressure")
+    columns = COLUMNS
 
     def __init__(self, hub, inst, allocator):
         self.allocator, self.voice = allocator, int(inst.values["voice"]) - 1
@@ -201,4 +304,5 @@ class VoiceTap(Tap):
         ext[:] = self.allocator.block(t0, ext.shape[0])[self.voice]
 
 
-__all__ = ["CHANNEL_MESSAGES", "Allocator", "VoiceTap", "is_note_off", "is_note_on", "resolve"]
+__all__ = ["CHANNEL_MESSAGES", "COLUMNS", "DETUNE", "SLIDE", "SLIDE_CC", "Allocator", "VoiceTap", "is_note_off",
+           "is_note_on", "resolve"]
