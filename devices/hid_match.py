@@ -63,6 +63,11 @@ def _entries():
     return out
 
 
+def connected_entry(path):
+    """hidapi's entry of the device at `path`, or None."""
+    return next((e for e in _entries() if e.get("path") == path), None)
+
+
 def read_descriptor(path):
     """The report descriptor bytes of the device at hidapi path `path` (MatchError if unreadable)."""
     hid = hid_transports.hid_module()
@@ -177,5 +182,5 @@ def device_lines(devices):
     return lines
 
 
-__all__ = ["Found", "MATCH_KEYS", "MatchError", "connected", "describe_match", "device_lines", "find",
+__all__ = ["Found", "MATCH_KEYS", "MatchError", "connected", "connected_entry", "describe_match", "device_lines", "find",
            "read_descriptor"]
