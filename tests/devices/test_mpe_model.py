@@ -161,3 +161,36 @@ def test_random_performances_follow_the_model(write_patch, tmp_path, seed):
                 free.discard(match[0])
                 checked += 1
     assert checked > 200
+
+
+@pytest.mark.parametrize("seed", [7, 8])
+def test_live_mpe_gives_the_columns_a_file_of_it_gives(seed):
+    """A random performance posted to a live hub in bursts (its clock faked), then the events it
+    placed, as a file: the same MPE voices, sample for sample, in any block size."""
+    from hapticgraph.devices.events import Hub
+    from hapticgraph.devices.mpe import Zones
+    from hapticgraph.devices.voices import DETUNE, Allocator
+    messages = [m for _, m in performance(seed)[0]]
+    rng, n = np.random.default_rng(seed), 64
+    live, now = Hub("keys"), [0.0]
+    live.clock = lambda: now[0]
+    live.start(RATE)
+    live.log = []
+    alloc, blocks, t0 = Allocator(live, None, 8, Zones("lower")), [], 0
+    while messages or t0 < 64 * n:
+        stamps = np.sort(rng.uniform(now[0], now[0] + n / RATE, int(rng.integers(0, 6))))
+        for stamp in stamps:
+            for _ in range(int(rng.integers(1, 4))):
+                if messages:
+                    live.post(messages.pop(0), float(stamp))
+        now[0] += n / RATE
+        blocks.append(alloc.block(t0, n).transpose(1, 0, 2).copy())
+        t0 += n
+    played = np.concatenate(blocks)
+    assert played[:, :, DETUNE].std() > 0 and len({s for s, _ in live.log}) < len(live.log)
+    for block in (1, 64, 100):
+        from_file = Allocator(Hub("song", timed=sorted(live.log, key=lambda e: e[0])), None, 8, Zones("lower"))
+        from_file.hub.start(RATE)
+        cols = np.concatenate([from_file.block(s, min(block, len(played) - s)).transpose(1, 0, 2).copy()
+                               for s in range(0, len(played), block)])
+        np.testing.assert_array_equal(cols, played)
