@@ -1,0 +1,83 @@
+"""The life of an exported instance: NAME_new (the host's rate checked, derived and checked again
+at that rate, rings allocated: the only allocation), _reset, _free, _process (pending parameter
+changes applied, then the translated kernel over n samples), _set and _get. `plan` is a
+graph/c/export.CPlan."""
+from .values import literal
+
+
+def new(plan):
+    n, lines = plan.name, []
+    lines += [f"{n} *{n}_new(double rate)", "{", f"    {n} *s;"]
+    lines.append(f"    if (!(rate >= {literal(plan.rates[0])} && rate <= {literal(plan.rates[1])})) return NULL;")
+    if plan.fixed_rate:
+        lines.append(f"    if (rate != {literal(plan.rate)}) return NULL;   /* {plan.fixed_rate} */")
+    lines += [f"    s = ({n} *)calloc(1, sizeof *s);", "    if (s == NULL) return NULL;", "    s->rate = rate;",
+              "    memcpy(s->live, hg_live0, sizeof s->live);", "    memcpy(s->next_live, hg_live0, sizeof s->next_live);",
+              "    memcpy(s->coef, hg_coef0, sizeof s->coef);"]
+    if plan.rate_slot is not None:
+        lines.append(f"    s->coef[{plan.rate_slot}] = rate;")
+    lines.append("    if (hg_check_all(s->live, rate) || hg_derive_all(s->live, rate, s->coef)) { free(s); return NULL; }")
+    for k, size in enumerate(plan.buffers):
+        lines.append(f"    s->buf[{k}].n = hg_capacity({size});")
+        lines.append(f"    s->buf[{k}].p = (double *)calloc((size_t)s->buf[{k}].n, sizeof(double));")
+        lines.append(f"    if (s->buf[{k}].p == NULL) {{ {n}_free(s); return NULL; }}")
+    lines += [f"    {n}_reset(s);", "    return s;", "}", ""]
+    return "\n".join(lines)
+
+
+def reset(plan):
+    n = plan.name
+    lines = [f"void {n}_reset({n} *s)", "{", "    s->t = 0;"]
+    for slot, value in enumerate(plan.state):
+        lines.append(f"    s->state[{slot}] = {value};")
+    for k in range(len(plan.buffers)):
+        lines.append(f"    memset(s->buf[{k}].p, 0, (size_t)s->buf[{k}].n * sizeof(double));")
+    for k in range(len(plan.arrays)):
+        lines.append(f"    memcpy(s->a{k}, hg_a{k}_init, sizeof s->a{k});")
+    return "\n".join(lines + ["}", ""])
+
+
+def free(plan):
+    n = plan.name
+    lines = [f"void {n}_free({n} *s)", "{", "    if (s == NULL) return;"]
+    lines += [f"    free(s->buf[{k}].p);" for k in range(len(plan.buffers))]
+    return "\n".join(lines + ["    free(s);", "}", ""])
+
+
+def process(plan):
+    n = plan.name
+    args = ["(long long)n", "s->t", f"hg_view(s->state, {len(plan.state)})", f"hg_view(s->live, {len(plan.live)})",
+            f"hg_view(s->coef, {len(plan.coef)})", "rec", "ext"]
+    args += [f"s->buf[{k}]" for k in range(len(plan.buffers))]
+    args += [f"hg_{'' if a.dtype.kind == 'f' else 'i'}view(s->a{k}, {len(a)})" for k, a in enumerate(plan.arrays)]
+    lines = [f"int {n}_process({n} *s, const double *const *in, double *const *out, int n)", "{",
+             "    hg_rec rec;", "    hg_ext ext;", "    long long code;", "    hg_fpenv saved;",
+             "    if (n <= 0) return 0;", "    if (s->dirty) hg_apply(s);",
+             f"    rec.col = out; rec.n = n; rec.m = {len(plan.outputs)};",
+             f"    ext.col = in; ext.n = n; ext.m = {len(plan.inputs)};",
+             "    saved = hg_flush_enter();" if plan.flush_outside else "    saved = 0;",
+             f"    code = hg_kernel({', '.join(args)});",
+             "    hg_flush_exit(saved);" if plan.flush_outside else "    (void)saved;",
+             "    s->t += n;",
+             "    return code > INT_MAX ? INT_MAX : code < INT_MIN ? INT_MIN : (int)code;", "}", ""]
+    return "\n".join(lines)
+
+
+def set_get(plan):
+    n, count = plan.name, len(plan.params)
+    return "\n".join([
+        f"int {n}_set({n} *s, int index, double value)", "{", "    int slot;",
+        f"    if (index < 0 || index >= {count} || hg_live_slot[index] < 0) return -1;",
+        "    if (!hg_in_range(index, value)) return -2;",
+        "    slot = hg_live_slot[index];",
+        "    memcpy(s->scratch_live, s->next_live, sizeof s->scratch_live);",
+        "    memcpy(s->scratch_coef, s->coef, sizeof s->scratch_coef);",
+        "    s->scratch_live[slot] = value;",
+        "    if (hg_derive_all(s->scratch_live, s->rate, s->scratch_coef)) return -3;",
+        "    s->next_live[slot] = value;", "    s->dirty = 1;", "    return 0;", "}", "",
+        f"double {n}_get(const {n} *s, int index)", "{",
+        f"    if (index < 0 || index >= {count}) return NAN;",
+        f"    return hg_live_slot[index] >= 0 ? s->next_live[hg_live_slot[index]] : {n}_params[index].def;", "}", ""])
+
+
+__all__ = ["free", "new", "process", "reset", "set_get"]

@@ -1,0 +1,49 @@
+"""What `hapticgraph export` writes: the C files, or an LV2 bundle built from them."""
+import os
+import re
+
+from ..graph.c import export_c
+from ..graph.patch import load
+from .compiler import ExportError
+from .lv2 import write_bundle
+
+TARGETS = ("c", "lv2", "wasm")
+
+
+def export_name(path):
+    """The default C prefix of a patch file: its name, reduced to an identifier."""
+    stem = os.path.splitext(os.path.basename(os.fspath(path)))[0]
+    name = re.sub(r"[^A-Za-z0-9_]", "_", stem) or "patch"
+    return name if not name[0].isdigit() else f"p_{name}"
+
+
+def write_c(lowered, out):
+    """NAME.h and NAME.c in the folder `out` (made if needed); their paths."""
+    os.makedirs(out, exist_ok=True)
+    paths = []
+    for ext, text in (("h", lowered.header), ("c", lowered.source)):
+        path = os.path.join(out, f"{lowered.name}.{ext}")
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+        paths.append(path)
+    return paths
+
+
+def export(patch, to, out, name=None, overrides=(), install=False):
+    """Export `patch` (a Patch, or a path loaded with `overrides`) `to` "c" or "lv2" into the
+    folder `out`; the paths written. PatchError for a patch that cannot be lowered, ExportError
+    for a build that fails, ValueError for a target not offered."""
+    if to not in TARGETS:
+        raise ValueError(f"unknown target {to!r}; one of {', '.join(TARGETS)}")
+    if to == "wasm":
+        raise ExportError("--to wasm is not built yet: export C (--to c) and compile it with a WebAssembly "
+                          "toolchain (docs/export.md)")
+    if isinstance(patch, (str, os.PathLike)):
+        patch = load(patch, overrides=overrides)
+    lowered = export_c(patch, name or export_name(patch.file))
+    if to == "c":
+        return write_c(lowered, out)
+    return write_bundle(lowered, out, install=install)
+
+
+__all__ = ["TARGETS", "export", "export_name", "write_c", "ExportError"]

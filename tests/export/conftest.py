@@ -1,0 +1,102 @@
+"""The C export's tests: a patch exported, a small C driver (written here, as a host would) built
+with it by the system's compiler, run for N samples, its outputs read back as raw doubles."""
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+from hapticgraph import load
+from hapticgraph.export.bundle import export_name, write_c
+from hapticgraph.export.compiler import build
+from hapticgraph.graph.c import export_c
+
+DRIVER = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "{name}.h"
+
+/* rate total block inputs.bin|- [SAMPLE INDEX VALUE]... : outputs as raw doubles, row by row */
+int main(int argc, char **argv)
+{{
+    double rate = atof(argv[1]);
+    long total = atol(argv[2]), done, k;
+    int block = atoi(argv[3]), n, c, a;
+    int nin = {NAME}_N_INPUTS, nout = {NAME}_N_OUTPUTS;
+    double *all = NULL, **in, **out;
+    {name} *s = {name}_new(rate);
+    if (s == NULL) {{ fputs("NULL\n", stderr); return 3; }}
+    in = calloc(nin + 1, sizeof *in);
+    out = calloc(nout + 1, sizeof *out);
+    for (c = 0; c < nin; c++) in[c] = calloc(block, sizeof(double));
+    for (c = 0; c < nout; c++) out[c] = calloc(block, sizeof(double));
+    if (nin) {{
+        FILE *f = fopen(argv[4], "rb");
+        all = calloc((size_t)total * nin, sizeof(double));
+        if (f == NULL || fread(all, sizeof(double), (size_t)total * nin, f) != (size_t)total * nin) return 5;
+        fclose(f);
+    }}
+    for (done = 0; done < total; done += n) {{
+        for (a = 5; a + 2 < argc; a += 3)
+            if (atol(argv[a]) == done && {name}_set(s, atoi(argv[a + 1]), atof(argv[a + 2])) != 0) return 4;
+        n = total - done < block ? (int)(total - done) : block;
+        for (c = 0; c < nin; c++) for (k = 0; k < n; k++) in[c][k] = all[(done + k) * nin + c];
+        {name}_process(s, (const double *const *)in, out, n);
+        for (k = 0; k < n; k++) for (c = 0; c < nout; c++) fwrite(&out[c][k], sizeof(double), 1, stdout);
+    }}
+    {name}_free(s);
+    return 0;
+}}
+"""
+
+
+class Built:
+    """An exported patch built with the test's driver: `run(rate, total, block, inputs, sets)`."""
+
+    def __init__(self, exe, lowered):
+        self.exe, self.lowered = exe, lowered
+
+    def param(self, name):
+        return [p.name for p in self.lowered.params].index(name)
+
+    def run(self, rate, total, block=1000, inputs=None, sets=(), expect=0):
+        folder = self.exe.parent
+        path = "-"
+        if inputs is not None:
+            path = str(folder / "inputs.bin")
+            np.ascontiguousarray(inputs, dtype=np.float64).tofile(path)
+        args = [str(self.exe), repr(float(rate)), str(total), str(block), path]
+        for at, index, value in sets:
+            args += [str(at), str(index), repr(float(value))]
+        proc = subprocess.run(args, capture_output=True, timeout=120)
+        assert proc.returncode == expect, proc.stderr.decode()
+        return np.frombuffer(proc.stdout, dtype=np.float64).reshape(-1, len(self.lowered.outputs))
+
+
+@pytest.fixture
+def c_export(tmp_path):
+    """c_export(patch or path, name=None, overrides=()) -> Built."""
+    def make(patch, name=None, overrides=()):
+        if isinstance(patch, (str, os.PathLike)):
+            patch = load(patch, overrides=overrides)
+        name = name or export_name(patch.file)
+        lowered = export_c(patch, name)
+        folder = tmp_path / name
+        write_c(lowered, folder)
+        driver = folder / "driver.c"
+        driver.write_text(DRIVER.format(name=name, NAME=name.upper()), encoding="utf-8")
+        exe = folder / "driver"
+        build([driver, folder / f"{name}.c"], exe, extra=["-I", str(folder)])
+        return Built(exe, lowered)
+    return make
+
+
+def _same_bits(a, b):
+    a, b = np.ascontiguousarray(a, dtype=np.float64), np.ascontiguousarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.array_equal(a.view(np.uint64), b.view(np.uint64))
+
+
+@pytest.fixture
+def same_bits():
+    """same_bits(a, b): equal as float64 bit patterns (-0.0 and 0.0 differ, a NaN equals itself)."""
+    return _same_bits
