@@ -1,6 +1,6 @@
 """Finding a connected HID device by what a patch says of it, and reading its report descriptor
-through hidapi (`get_report_descriptor`; on Linux hidapi reads the hidraw node's, the same bytes
-as /sys/class/hidraw/*/device/report_descriptor):
+through hidapi (`get_report_descriptor`; on Linux, if hidapi cannot, the hidraw node's
+/sys/class/hidraw/hidrawN/device/report_descriptor):
 
     stick: {driver: hid, match: {vendor: 0x045e, product: 0x001b}}
     stick: {driver: hid, match: {name: "SideWinder"}}          # in the product (or maker) name
@@ -15,6 +15,8 @@ keyboard) gives the inputs of the matching collection only.
 `connected()` is what `hapticgraph devices` shows: every device hidapi sees, with its usable
 inputs and whether it has force feedback (read from its descriptor).
 """
+import os
+import re
 from dataclasses import dataclass
 
 from . import hid_transports
@@ -23,6 +25,7 @@ from .hid_descriptor import DescriptorError, parse
 from .hid_usages import application_label, application_usage
 
 MATCH_KEYS = ("vendor", "product", "name", "serial", "usage", "index")
+SYSFS_HIDRAW = "/sys/class/hidraw"       # Linux: where a hidraw node's descriptor is, if hidapi cannot say
 
 
 class MatchError(DeviceError):
@@ -68,8 +71,22 @@ def connected_entry(path):
     return next((e for e in _entries() if e.get("path") == path), None)
 
 
+def _sysfs_descriptor(path):
+    """Linux: the descriptor the kernel keeps for a hidraw node (/dev/hidrawN ->
+    SYSFS_HIDRAW/hidrawN/device/report_descriptor), or None."""
+    name = os.path.basename(str(path))
+    if not re.fullmatch(r"hidraw\d+", name):
+        return None
+    try:
+        with open(os.path.join(SYSFS_HIDRAW, name, "device", "report_descriptor"), "rb") as f:
+            return f.read() or None
+    except OSError:
+        return None
+
+
 def read_descriptor(path):
-    """The report descriptor bytes of the device at hidapi path `path` (MatchError if unreadable)."""
+    """The report descriptor bytes of the device at hidapi path `path`: hidapi's
+    get_report_descriptor, else (Linux) the hidraw node's in sysfs; MatchError if neither."""
     hid = hid_transports.hid_module()
     dev = hid.device()
     try:
@@ -79,6 +96,9 @@ def read_descriptor(path):
         finally:
             dev.close()
     except (OSError, ValueError) as exc:
+        data = _sysfs_descriptor(path)
+        if data is not None:
+            return data
         raise MatchError(f"cannot read the report descriptor of the HID device at {path}: {exc}") from None
 
 

@@ -241,3 +241,28 @@ def test_yoke_lists_y_before_x_and_16_bit_axes():
     assert spot(d, "rz") == (1, 104, 16, 0, 65535)
     assert spot(d, "vendor_fff0_0051") == (1, 128, 8, 0, 255)
     assert spot(d, "vendor_fff0_0051_32")[1] == 128 + 31 * 8      # Report Count (32) of one usage
+
+
+# A descriptor written for this test (not a device's): signed fields and physical units, the
+# exponents in both encodings a device may use (0x0E for −2 as a nibble, 0xFD for −3 as a byte).
+UNITS = bytes.fromhex(
+    "05 01 09 04 a1 01"
+    " 09 30 16 18 fc 26 e8 03 35 ce 45 32 65 11 55 0e 75 10 95 01 81 02"    # X: −1000…1000 -> −50…50 × 10⁻² cm
+    " 09 32 15 00 26 e8 03 35 00 46 e8 03 65 11 55 fd 75 10 95 01 81 02"    # Z: 0…1000 -> 0…1000 × 10⁻³ cm
+    " 09 31 15 81 25 7f 35 00 45 00 65 00 55 00 75 08 95 01 81 02"          # Y: −127…127, no unit
+    " c0")
+
+
+def test_physical_units_and_signed_fields():
+    d = parse(UNITS)
+    x, z, y = d.inputs
+    assert (x.scaling, x.unit, x.signed) == ("physical", "m", True) and x.factor == pytest.approx(1e-4)
+    assert (z.scaling, z.unit) == ("physical", "m") and z.factor == pytest.approx(1e-5)
+    assert (y.scaling, y.signed, y.logical_min) == ("centred", True, -127)
+    dev = DescribedDevice(d)
+    report = (500).to_bytes(2, "little", signed=True) + (250).to_bytes(2, "little") + (-64).to_bytes(1, "little", signed=True)
+    r, _ = row_of(dev, report)
+    assert r["x"] == pytest.approx((-50 + 1500 * 100 / 2000) * 1e-4)       # 2.5 mm
+    assert r["z"] == pytest.approx(250 * 1e-5) and r["y"] == pytest.approx(-64 / 127)
+    r, _ = row_of(dev, (-1000).to_bytes(2, "little", signed=True) + bytes(2) + (127).to_bytes(1, "little"))
+    assert r["x"] == pytest.approx(-50e-4) and r["y"] == 1.0

@@ -11,7 +11,7 @@ import pytest
 
 from hapticgraph import load
 from hapticgraph.cli import main
-from hapticgraph.devices import hid_transports, open_drivers
+from hapticgraph.devices import hid_match, hid_transports, open_drivers
 from hapticgraph.devices.hid import HidDriver
 from hapticgraph.devices.hid_match import MatchError, connected, device_lines, find
 from hapticgraph.graph.errors import PatchError
@@ -146,3 +146,27 @@ def test_real_hidapi_finds_nothing_here():
     with pytest.raises(MatchError, match="connected: none"):
         find({"usage": "joystick"})
     assert connected() == []
+
+
+def test_linux_sysfs_descriptor_when_hidapi_cannot(monkeypatch, tmp_path):
+    class NoDescriptor(FakeHidapi):
+        def device(self):
+            handle = super().device()
+
+            def refuse():
+                raise OSError("get_report_descriptor failed")
+            handle.get_report_descriptor = refuse
+            return handle
+
+    data = rdesc("logitech_driving_force_pro_046d_c298.rdesc")
+    fake = NoDescriptor([FakeDevice(b"/dev/hidraw7", 0x046D, 0xC298, b"", product="Driving Force Pro")])
+    monkeypatch.setattr(hid_transports, "hid_module", lambda: fake)
+    node = tmp_path / "hidraw7" / "device"
+    node.mkdir(parents=True)
+    (node / "report_descriptor").write_bytes(data)
+    monkeypatch.setattr(hid_match, "SYSFS_HIDRAW", str(tmp_path))
+    found = find({"name": "driving force"})
+    assert found.descriptor.data == data and "x" in found.descriptor.ports
+    monkeypatch.setattr(hid_match, "SYSFS_HIDRAW", str(tmp_path / "none"))
+    with pytest.raises(MatchError, match="cannot read the report descriptor of the HID device at /dev/hidraw7"):
+        find({"name": "driving force"})
