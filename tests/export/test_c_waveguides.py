@@ -1,0 +1,60 @@
+"""Every shipped waveguide patch exported to C gives the bits of the Python run: its device is a
+driver, so the C reads in `in` what the Python run's drivers produced — the simulated device's
+position, velocity and axes (probed from its model), a MIDI file's columns (Session.inputs) —
+and its audio and the forces it sends (Session.forces) are compared bit for bit."""
+import numpy as np
+import pytest
+
+import hapticgraph
+from project_env import ROOT
+
+WAVEGUIDES = ["buzz_50hz", "feedback_comb", "fig7_bowed_string", "fig8_pluck_damp", "midi_melody",
+              "plucked_string", "poly_strings", "string_bound_explicit", "string_bound_implicit"]
+# what a haptic block outputs of its sensor columns (blocks/device.py: Haptic.output)
+SENSOR = {"sensor_x": "x", "sensor_v": "v"}
+
+
+def _device_probes(patch, lowered):
+    """{C input index: probe} for the columns a device model computes inside Python's kernel."""
+    probes = {}
+    for k, port in enumerate(lowered.inputs):
+        device, _, column = port.name.partition(".")
+        bound = [b for b in patch.blocks.values() if any(
+            p.refers == "devices" and b.values.get(n) == device for n, p in b.cls.params.items())]
+        if bound:
+            probes[k] = f"{bound[0].name}.{SENSOR.get(column, column)}"
+    return probes
+
+
+def _python_run(path, lowered, seconds, block):
+    patch = hapticgraph.load(path)
+    probes = _device_probes(patch, lowered)
+    with hapticgraph.Session.open(path, probes=sorted(set(probes.values())), blocksize=block) as s:
+        columns = {f"{d}.{c}": j for j, (d, c) in enumerate(s.program.ext_columns)}
+        audio, forces, inputs = [], [], []
+        for _ in range(round(seconds * s.rate) // block):
+            out = s.process(block)
+            probed = s.probes_of(out)
+            row = np.zeros((block, len(lowered.inputs)))
+            for k, port in enumerate(lowered.inputs):
+                row[:, k] = probed[probes[k]] if k in probes else s.inputs[:, columns[port.name]]
+            audio.append(np.array(s.audio_of(out)))
+            forces.append(np.array(s.forces))
+            inputs.append(row)
+    return np.concatenate(audio), np.concatenate(forces), np.concatenate(inputs), s.rate
+
+
+@pytest.mark.parametrize("name", WAVEGUIDES)
+def test_waveguide_patch_in_c_gives_the_bits_of_the_python_run(name, c_export, same_bits):
+    path = ROOT / "patches" / f"{name}.yaml"
+    built = c_export(path)
+    lowered = built.lowered
+    block = 950
+    audio, forces, inputs, rate = _python_run(path, lowered, 1.0, block)
+    got = built.run(rate, len(audio), block=block, inputs=inputs)
+    channels = audio.shape[1]
+    assert np.abs(audio).max() > 0.0                      # it sounds
+    assert same_bits(got[:, :channels], audio)
+    assert same_bits(got[:, channels:], forces)
+    if forces.size:
+        assert np.abs(forces).max() > 0.0                 # a force was sent
