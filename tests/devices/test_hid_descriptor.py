@@ -266,3 +266,18 @@ def test_physical_units_and_signed_fields():
     assert r["z"] == pytest.approx(250 * 1e-5) and r["y"] == pytest.approx(-64 / 127)
     r, _ = row_of(dev, (-1000).to_bytes(2, "little", signed=True) + bytes(2) + (127).to_bytes(1, "little"))
     assert r["x"] == pytest.approx(-50e-4) and r["y"] == 1.0
+
+
+def test_3d_mouse_relative_axes_in_physical_units():
+    d = desc("3dconnexion_spacenavigator_046d_c626.rdesc")   # Logical ±350, Physical ±1400, Unit cm, Exponent −4
+    assert d.applications == (("multi_axis", 1, 8),)
+    x = field(d, "x")
+    assert spot(d, "x") == (1, 0, 16, -350, 350) and spot(d, "rz") == (2, 32, 16, -350, 350)
+    assert (x.relative, x.signed, x.physical_min, x.physical_max, x.unit) == (True, True, -1400, 1400, "m")
+    assert x.factor == pytest.approx(1e-6)
+    dev = DescribedDevice(d)
+    r, dec = row_of(dev, b"\x01" + (350).to_bytes(2, "little", signed=True) + (-175).to_bytes(2, "little", signed=True)
+                    + bytes(2))
+    assert r["x"] == pytest.approx(1.4e-3) and r["y"] == pytest.approx(-0.7e-3) and r["z"] == 0
+    out = np.zeros(dec.width)
+    assert dec.still(out) and out[0] == 0.0 and out[2] == 0.0      # silent: a relative field falls back to 0
