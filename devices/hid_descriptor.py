@@ -1,12 +1,14 @@
 """A HID report descriptor, parsed with hid-tools (hidtools.hid.ReportDescriptor), as the named
 inputs and outputs a patch sees: `parse(data)` -> Descriptor.
 
-Why hid-tools: it keeps what a player's device needs that hid-parser (0.1) drops — the
-application collection of every field (a joystick and a keyboard in one device), units and
-exponents, Push/Pop of the global state (hid-parser raises NotImplementedError on them), 32-bit
-usages and the usage tables themselves. What it gets wrong is put right here: a one-byte Unit
-Exponent such as 0xFD (−3) it reads as 237; a field with no usage (usage 0) is padding, as in
-the kernel.
+Why hid-tools (hidtools.hid, with its usage tables hidtools.hut) and not hid-parser 0.1: on this
+corpus (tests/data/hid) hid-parser loses what a player's device needs — it keeps no collections
+(a joystick and a keyboard in one device cannot be told apart), drops units and exponents, raises
+NotImplementedError on Push/Pop, and gives a Report Count larger than its usages only as many
+fields as usages, so the FR-TEC Raptor's report (128 buttons, 29 usages) comes out 405 bits long
+instead of 504 and every field after the buttons at the wrong offset; it has no usage names.
+What hid-tools gets wrong is put right here: a one-byte Unit Exponent such as 0xFD (−3) it
+reads as 237; a field with no usage (usage 0) is padding, as in the kernel.
 
 Every non-constant input field with a usage becomes one Input (see hapticgraph.devices.hid_usages
 for its name and scaling):
