@@ -164,3 +164,24 @@ def test_a_recording_beside_the_patch(write_patch, tmp_path):
     patch = load(write_patch(GAIN_PATCH.format(file="take.hid")))
     r = hapticgraph.render(patch, 0.01, probes=["tone.out"])
     np.testing.assert_allclose(r.probes["tone.out"], 2 * 141 / 255 - 1)
+
+
+def test_a_recording_replaces_another_driver_from_the_command_line(write_patch, tmp_path):
+    path = write_patch("""
+    hapticgraph: 1
+    rate: 1000
+    devices:
+      pad: {driver: simulated, script: [{t: 0, x: 0.0}]}
+    blocks:
+      stick: {type: haptic, device: pad}
+      g: {type: gain, gain: 1.0}
+      out: {type: audio_out, channels: 1}
+    connect:
+      - stick.x -> g.in
+      - g.out -> out.ch0
+    """)
+    out = tmp_path / "o.wav"
+    assert main(["run", str(path), "--seconds", "0.2", "--out", str(out), "--quiet",
+                 "--device", f"pad=hid,recording={PS3}"]) == 0
+    _, audio = wavfile.read(out)
+    np.testing.assert_allclose(audio, 2 * 141 / 255 - 1, rtol=1e-6)
