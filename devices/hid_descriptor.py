@@ -28,7 +28,7 @@ Bit offsets count from the first bit of the report's data, after the report-id b
 numbered report (as a profile's `byte`/`bit` do).
 """
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from hidtools.hid import HidUnit, ParseError, ReportDescriptor, Unit
 
@@ -236,14 +236,8 @@ def _number(items):
         taken.add(name)
         if item.kind == "hat":
             taken.update((f"{name}_x", f"{name}_y"))
-        out.append(item if name == item.name else _renamed(item, name))
+        out.append(item if name == item.name else replace(item, name=name))
     return out
-
-
-def _renamed(item, name):
-    fields = dict(vars(item))
-    fields["name"] = name
-    return type(item)(**fields)
 
 
 # the haptic block's own ports and settings: no input may take these names (x is the X axis: the
@@ -326,7 +320,7 @@ def describe_lines(desc, title=None):
         rng = f"{i.logical_min}…{i.logical_max}"
         how = {"centred": "−1 … 1", "positive": "0 … 1", "button": "0/1",
                "hat": f"{i.name}_x, {i.name}_y −1…1, {i.name} degrees (NaN centred)",
-               "physical": f"physical {i.physical_min}…{i.physical_max} in {i.unit}"}[i.scaling]
+               "physical": f"{i.physical_min * i.factor:g} … {i.physical_max * i.factor:g} {i.unit}"}[i.scaling]
         flags = "".join((" relative" if i.relative else "", " signed" if i.signed else ""))
         lines.append(f"  {i.name:16s} {i.kind:6s} {page_name(i.usage_page)} 0x{i.usage:02x}  {where}  "
                      f"logical {rng}{flags}  -> {how}")

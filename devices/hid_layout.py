@@ -19,8 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .hid_descriptor import parse
-
 HAT_DIRECTIONS = ((0, -1), (1, -1), (1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1))   # up, clockwise
 DEFAULT_INTERVAL = 0.008       # s: USB full-speed HID devices are polled at 125 Hz unless they say
 VELOCITY_CUTOFF = 20.0         # Hz: smoothing of the x velocity estimate (the gamepad profile's)
@@ -40,16 +38,16 @@ class Timing:
 class DescribedDevice:
     """A device as its report descriptor describes it (see the module's doc).
 
-    `descriptor`: a Descriptor or its bytes; `collection`: keep only the inputs of that top-level
-    collection (its index); `interval`: the report interval [s] if known (a recording's)."""
+    `descriptor`: a Descriptor (hapticgraph.devices.hid_descriptor.parse); `collection`: keep only
+    the inputs of that top-level collection (its index); `interval`: the report interval [s] if
+    known (a recording's)."""
 
     output = None
     max_force = 0.0
 
     def __init__(self, descriptor, name="", vendor_id=0, product_id=0, interval=DEFAULT_INTERVAL,
                  collection=None, source=""):
-        desc = descriptor if not isinstance(descriptor, (bytes, bytearray, list)) else parse(descriptor)
-        self.descriptor = desc
+        desc = self.descriptor = descriptor
         self.name, self.vendor_id, self.product_id = name or "hid device", vendor_id, product_id
         self.source = source
         self.inputs = tuple(i for i in desc.inputs if collection is None or i.collection == collection)

@@ -27,7 +27,7 @@ def recording_path(ref, base):
 def from_recording(ref, base=None):
     """(DescribedDevice, Recording) of a recording file; RecordingError or DescriptorError."""
     rec = load_recording(recording_path(ref, base))
-    layout = DescribedDevice(rec.descriptor, rec.name, rec.vendor_id, rec.product_id, rec.interval(),
+    layout = DescribedDevice(parse(rec.descriptor), rec.name, rec.vendor_id, rec.product_id, rec.interval(),
                              source=rec.path)
     return layout, rec
 
