@@ -76,25 +76,21 @@ class Zones:
 
     # -- registered parameters -------------------------------------------------------------------
     def configure(self, m):
-        """Apply a control change of RPN selection or data entry (`m.control` in RPN_CONTROLS).
-        Returns the channels whose zone changed (their notes end), or None when the ranges alone
-        may have changed (the notes' pitches are computed again), or () for neither."""
+        """Apply a control change of RPN selection or data entry (`m.control` in RPN_CONTROLS):
+        (the channels whose zone changed: their notes end, whether a bend range changed)."""
         c, number, value = m.channel, m.control, m.value
         if number in (NRPN_MSB, NRPN_LSB):
             self.rpn[c] = None
-            return ()
-        if number == RPN_MSB:
+        elif number == RPN_MSB:
             self.rpn[c] = (value, self.rpn[c][1] if self.rpn[c] else None)
-            return ()
-        if number == RPN_LSB:
+        elif number == RPN_LSB:
             self.rpn[c] = (self.rpn[c][0] if self.rpn[c] else None, value)
-            return ()
-        if self.rpn[c] == CONFIGURATION and number == DATA_MSB and c in MASTERS:
-            return self._configure_zone(MASTERS.index(c), value)
-        if self.rpn[c] == BEND_RANGE and self.zone[c] is not None:
+        elif self.rpn[c] == CONFIGURATION and number == DATA_MSB and c in MASTERS:
+            return self._configure_zone(MASTERS.index(c), value), True
+        elif self.rpn[c] == BEND_RANGE and self.zone[c] is not None:
             self._bend_range(c, number, value)
-            return None
-        return ()
+            return (), True
+        return (), False
 
     def _bend_range(self, c, number, value):
         z = self.zone[c]

@@ -186,12 +186,12 @@ class Allocator:
         zones, out = self.zones, []
         for m in messages:
             if m.type == "control_change" and m.control in RPN_CONTROLS:
-                moved = zones.configure(m)
-                if moved is None:
-                    self._retune()
+                moved, ranges = zones.configure(m)
                 for v in range(self.count):
-                    if self.held[v] and self.owner[v][0] in (moved or ()):
+                    if self.held[v] and self.owner[v][0] in moved:
                         self._release(v)
+                if ranges:
+                    self._retune()
             elif zones.zone_of(m.channel) is not None:
                 if m.type == "control_change" and m.control in ALL_OFF and zones.is_master(m.channel):
                     out += [m.copy(channel=c) for c in zones.channels(zones.zone_of(m.channel))]

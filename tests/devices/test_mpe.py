@@ -224,3 +224,19 @@ def test_mpe_needs_voices_and_every_channel(write_patch):
             note: {type: midi_note, device: keys, mpe: middle}
         """)
     assert len(bad) == 1 and bad[0][0] == 7 and "mpe" in bad[0][1]
+
+
+def test_rpn_cents_and_a_repeated_configuration_message(write_patch, tmp_path):
+    """RPN 0's cents (CC 38) count; an MCM that moves no channel keeps the notes but sets the
+    zone's ranges back to ±48 and ±2; an NRPN's data entry is not a bend range."""
+    from hapticgraph.devices.midi import write_midi_file
+    g = gestures()
+    events = [(10, g.on(3, 60)), (20, g.bend(3, 4096))]
+    events += [(30, m) for m in g.rpn(3, 0, 12, 50)]                     # ±12.5 semitones
+    events += [(40, m) for m in [g.cc(3, 99, 0), g.cc(3, 98, 0), g.cc(3, 6, 1)]]   # an NRPN: ignored
+    events += [(50, m) for m in g.mcm(0, 15)]
+    write_midi_file(tmp_path / "r.mid", events, RATE)
+    r = play(write_patch, tmp_path / "r.mid", "lower", seconds=0.002, voices=2)
+    assert offset(r, 0, 20, 60) == near(24) and offset(r, 0, 30, 60) == near(6.25)
+    assert offset(r, 0, 40, 60) == near(6.25)
+    assert offset(r, 0, 50, 60) == near(24) and r["gate"][50:, 0].min() == 1.0
