@@ -311,21 +311,32 @@ class Player:
         """Fade out and stop (what Ctrl-C does)."""
         self.stop_requested = True
 
-    def run(self, on_tick=None):
-        """Start the stream and block until the end; Ctrl-C fades out. Returns a Report."""
+    def run(self, on_tick=None, stop=None):
+        """Start the stream and block until the end; Ctrl-C (KeyboardInterrupt), or a signal
+        noted by `stop` (its `signum` set, as graph.engine.StopRequest's: checked every 50 ms),
+        fades out — asked before the stream started, no sound is made. Returns a Report."""
         session = self.session
         session.start()          # drivers start here, before the first callback
+
+        def asked():
+            return stop is not None and stop.signum is not None
         try:
-            self.stream.start()
             began = time.perf_counter()
+            stopped = asked()
             try:
-                while not self.done.wait(0.05):
-                    if on_tick is not None:
-                        on_tick()
+                if not stopped:
+                    self.stream.start()
+                    while not (self.done.wait(0.05) or stopped):
+                        stopped = asked()
+                        if on_tick is not None and not stopped:
+                            on_tick()
             except KeyboardInterrupt:
+                stopped = True
+            if stopped:
                 self.interrupted = True
                 self.request_stop()
-                self.done.wait(0.5 + 4 * self.blocksize / self.rate + self.nfade / self.rate)
+                if self.stream.active:
+                    self.done.wait(0.5 + 4 * self.blocksize / self.rate + self.nfade / self.rate)
             self.wall = time.perf_counter() - began
         finally:
             try:

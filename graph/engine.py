@@ -253,8 +253,10 @@ def stream(patch, seconds, sink, probes=(), engine="compiled", chunk=1 << 14, pr
     during the call. A block with a NaN, an infinity or (with `safety`) a value over `runaway`
     sends zero force; with `safety` the run then stops with SafetyStop after handing the sink
     every sample before the one where it was caught. A lost device always stops it. `stop`, a
-    StopRequest, ends the run at the next block boundary (see there). Any exception leaving
-    here carries `.streamed`, the Streamed so far.
+    StopRequest or any object with its two attributes (the command line's Interrupt), ends the
+    run at the next block boundary once its `signum` is set; `stop.rendering` is set True when
+    the first block is about to run (the kernel made). Any exception leaving here carries
+    `.streamed`, the Streamed so far.
     """
     if engine == "python":
         chunk = min(chunk, 4096)

@@ -333,7 +333,8 @@ class Session:
         return swap
 
     def withdraw(self, swap):
-        """Take back a swap not yet applied (its opened drivers stop); False if it already played."""
+        """Take back a swap not yet applied (the drivers it opened stop, each within STOP_SECONDS:
+        graph.engine.stop_driver, as `retire` and `close`); False if it already played."""
         try:
             self._swaps.remove(swap)
         except ValueError:

@@ -1,12 +1,126 @@
-"""What the command line's commands share: the usage error (exit status 2), `--device` choices,
-the audio channels a patch sends out, and the check every output path passes before any work
-(it never names a file the command reads)."""
+"""What the command line's commands share: the usage error (exit status 2), the process's
+signals (Interrupt), `--device` choices, the audio channels a patch sends out, and the check every
+output path passes before any work (it never names a file the command reads)."""
+import contextlib
 import inspect
 import os
+import signal
+import sys
+import threading
 
 
 class UsageError(Exception):
     """A command line that cannot be run as given: one `hapticgraph: error:` line, exit status 2."""
+
+
+AGAIN_SECONDS = 0.01    # after a KeyboardInterrupt was dropped, the signal comes again this much later
+
+
+class Interrupt:
+    """The signals of a command's process: SIGINT from the first line of `main` to the process's
+    end, SIGTERM and SIGHUP while a command asks (`take`). Every command finds it as
+    `args.interrupt`.
+
+    The first signal raises KeyboardInterrupt where the program is, as Python's own handler does
+    — unless the command is running its patch (`rendering`: the signal is then a request, which
+    the command reads as `signum` at its next block; graph.engine.stream does) or is inside
+    `held()` (raised at its end: a temporary file and the code that removes it are never
+    separated). Every later signal is only noted, so that no clean-up is cut short. `signum` is
+    the first signal received, `raised` True once KeyboardInterrupt was raised for it; `status()`
+    the exit status it gives (128 + its number: 130 for Ctrl-C, as a shell reports it).
+
+    Once the command has finished — its files closed, its output flushed — `finished(status)`:
+    a signal then ends the process at once with that status (os._exit), so that the
+    interpreter's own ending (joining threads, collecting garbage) is never interrupted and can
+    print no "Exception ignored". A KeyboardInterrupt raised where no exception can leave (a
+    weakref callback, a `__del__`: Python would print "Exception ignored" and drop it) is dropped
+    silently and the signal sent again a moment later (AGAIN_SECONDS), to be raised elsewhere.
+    Signals reach the main thread only: elsewhere `take` does nothing; a signal ignored by whoever
+    started the process (`hapticgraph run … &` in a script) stays ignored."""
+
+    def __init__(self):
+        self.signum = None
+        self.rendering = False
+        self.raised = False
+        self._held = 0
+        self._previous = {}
+        self._status = None
+        self._hook = None             # sys.unraisablehook found by the first `take`
+        self._exit = os._exit         # bound now: at the interpreter's end module globals may be gone
+
+    def take(self, *signums):
+        """Handle these signals (as above) until `give_back`."""
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for signum in signums:
+            if signum not in self._previous and signal.getsignal(signum) is not signal.SIG_IGN:
+                self._previous[signum] = signal.signal(signum, self.request)
+        if self._previous and self._hook is None:
+            self._hook, sys.unraisablehook = sys.unraisablehook, self._unraisable
+
+    def give_back(self):
+        """The handlers found by `take`, put back."""
+        while self._previous:
+            signum, handler = self._previous.popitem()
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+        if self._hook is not None:
+            sys.unraisablehook, self._hook = self._hook, None
+
+    def _unraisable(self, unraisable):
+        if not (issubclass(unraisable.exc_type, KeyboardInterrupt) and self.raised and self._previous):
+            self._hook(unraisable)
+            return
+        self._held += 1               # a signal now is only noted: nothing may leave this hook
+        try:
+            self.raised = False       # dropped: the signal comes again once this hook has returned
+            again = threading.Timer(AGAIN_SECONDS, self._again)
+            again.daemon = True
+            again.start()
+        finally:
+            self._held -= 1
+
+    def _again(self):
+        if self.signum in self._previous:
+            signal.pthread_kill(threading.main_thread().ident, self.signum)
+
+    def request(self, signum, frame=None):
+        """The signal handler."""
+        if self._status is not None:
+            self._exit(self._status)
+        if self.signum is None:
+            self.signum = signum
+        self._raise()
+
+    def _raise(self):
+        if self.signum is not None and not (self.raised or self.rendering or self._held):
+            self.raised = True
+            raise KeyboardInterrupt
+
+    @contextlib.contextmanager
+    def held(self):
+        """A section no signal cuts: one received inside is raised at its end (if it ends
+        normally; an exception leaving it goes on instead)."""
+        self._held += 1
+        try:
+            yield
+        finally:
+            self._held -= 1
+        self._raise()
+
+    def status(self):
+        """The exit status of a process ended by the signal received (Ctrl-C if none was)."""
+        return 128 + (self.signum if self.signum is not None else signal.SIGINT)
+
+    def finished(self, status):
+        """The command is done and its output flushed: a signal from now on exits with `status`."""
+        self._status = status
+
+    def settle(self):
+        """Every signal taken is ignored from now on: for the interpreter's last moments, after
+        its exit functions (`main` registers this one first, so that it runs last), when Python
+        gives up its handlers and a signal would kill a process whose work is done."""
+        for signum in self._previous:
+            signal.signal(signum, signal.SIG_IGN)
 
 
 def device_choices(items):

@@ -1,7 +1,16 @@
 """The `hapticgraph` command line.
 
 Exit status: 0 on success, 2 for a patch error (one `FILE:LINE: message` line per problem on
-standard error, never a traceback), 1 for any other failure.
+standard error, never a traceback), 1 for any other failure, 130 when Ctrl-C stopped it (128 + the
+signal's number: 143 for SIGTERM, 129 for SIGHUP, where a command takes them).
+
+Ctrl-C at any moment, from the first line of `main` to the process's end, is one line on stderr
+and no traceback (cli/common.py's Interrupt): a command running its patch stops at the next block
+and says what it kept; elsewhere KeyboardInterrupt is raised once and `main` says
+`hapticgraph: interrupted`; after that the process ends with os._exit, waiting for no thread. A
+Ctrl-C once the command has finished ends the process at once with the command's status, and is
+ignored in the interpreter's last moments (after its exit functions). Before `main` runs (the
+interpreter starting, `import hapticgraph.cli`) Python's own handler reports it.
 
 The arguments are declared in cli/parser.py; each command's body lives with the commands it
 belongs with: cli/run.py (run: offline to files), cli/play.py (play, devices: the sound card and the
@@ -9,13 +18,15 @@ devices), cli/inspect.py (check, blocks, schema, graph, modes, plot), cli/studio
 cli/sweep.py (sweep, fit); cli/common.py holds what they share. A command's module is imported after the
 arguments are parsed, so `--help` (and a usage error) never imports numpy, numba or the blocks.
 """
+import atexit
 import gc
 import importlib
 import os
+import signal
 import sys
 
 # light: the engine is imported once a command runs
-from .common import UsageError
+from .common import Interrupt, UsageError
 from .parser import build_parser as _parser
 from ..graph.errors import PatchError
 
@@ -56,16 +67,47 @@ def _compile_notice(text):
 def main(argv=None):
     """Run the command line `argv` (None: this process's, which then ends when main returns); its
     exit status."""
-    code = _main(argv, argv is None)
+    interrupt = Interrupt()
+    interrupt.take(signal.SIGINT)
     if argv is None:
-        # the process ends now: its last garbage collection need not walk every object numba made
-        # (0.2-0.6 s after a compile); every file was closed by the command
-        gc.freeze()
+        atexit.register(interrupt.settle)     # first registered: run last
+    try:
+        code = _main(argv, argv is None, interrupt)
+    except KeyboardInterrupt:        # raised once (Interrupt): nothing interrupts this
+        print("hapticgraph: interrupted", file=sys.stderr)
+        code = interrupt.status()
+    except SystemExit as exc:        # argparse: --help, --version or a usage error, printed already
+        if argv is not None:
+            raise
+        code = 0 if exc.code is None else exc.code
+    finally:
+        if argv is not None:
+            interrupt.give_back()
+    if argv is None:
+        _end(code, interrupt)
     return code
 
 
-def _main(argv, whole_process):
+def _end(code, interrupt):
+    """The end of the process: its output flushed, then — interrupted — os._exit at once (a thread
+    still running is not waited for), else back to the interpreter with every later signal an
+    os._exit of `code` (see Interrupt.finished)."""
+    # the last garbage collection need not walk every object numba made (0.2-0.6 s after a
+    # compile); every file was closed by the command
+    gc.freeze()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):     # the reader has gone (a closed pipe): nothing to tell
+            pass
+    if interrupt.signum is not None:
+        os._exit(code)
+    interrupt.finished(code)
+
+
+def _main(argv, whole_process, interrupt):
     args = _parser().parse_args(argv)
+    args.interrupt = interrupt
     if whole_process and args.command in NO_BLAS:
         os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     told = args.command in ("run", "play", "plot", "check") and not getattr(args, "quiet", False)
@@ -73,7 +115,7 @@ def _main(argv, whole_process):
         from ..graph import kernel
         kernel.set_notice(_compile_notice)     # a cold compile says so at once; a cache hit says nothing
     try:
-        return _command(args.command)(args)
+        return _run(args)
     except PatchError as exc:
         for problem in exc.problems:
             print(problem, file=sys.stderr)
@@ -81,9 +123,6 @@ def _main(argv, whole_process):
     except UsageError as exc:
         print(f"hapticgraph: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("hapticgraph: interrupted", file=sys.stderr)
-        return 1
     except BrokenPipeError:          # e.g. `hapticgraph modes P | head`: the reader has gone
         sys.stderr.close()
         return 0
@@ -95,6 +134,18 @@ def _main(argv, whole_process):
     finally:
         if told:
             kernel.set_notice(None)
+
+
+def _run(args):
+    """The command's exit status. A failure once a signal has raised KeyboardInterrupt is that
+    interrupt: Python hands some on as another exception (one raised in `__set_name__` becomes a
+    RuntimeError), and what it left half done may fail after."""
+    try:
+        return _command(args.command)(args)
+    except Exception:
+        if args.interrupt.raised:
+            raise KeyboardInterrupt from None
+        raise
 
 
 __all__ = ["COMMANDS", "PatchError", "UsageError", "main"]

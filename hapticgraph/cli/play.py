@@ -1,5 +1,10 @@
 """`hapticgraph play` (real time through the sound card, with --record, --replay, --watch and
---console) and `hapticgraph devices` (the sound cards and HID devices this machine sees)."""
+--console) and `hapticgraph devices` (the sound cards and HID devices this machine sees).
+
+Ctrl-C (or SIGTERM) while loading or compiling ends play at once (`hapticgraph: interrupted`);
+from the moment the session is open — its devices started — it is a request: the sound fades out,
+the take (--record) is finished and every device stops within its deadline, then one line says
+so, exit status 130 (143 for SIGTERM)."""
 import signal
 import sys
 
@@ -34,6 +39,7 @@ def cmd_play(args):
     except audio.AudioError as exc:
         print(f"hapticgraph: error: {exc}", file=sys.stderr)
         return 1
+    args.interrupt.take(signal.SIGTERM)           # a kill stops it as Ctrl-C does
     session, live, out_dev, in_dev = _open_session(args, patch, choices)
     recorder = _open_recorder(args, patch, choices, session, live) if args.record else None
     try:
@@ -124,6 +130,7 @@ def _open_session(args, patch, choices):
                 args.seconds = take.seconds
         session = Session.open(patch, probes=args.probe, devices=choices, drivers=drivers, blocksize=args.blocksize,
                                editable=args.console, live_input=audio.LiveInput.for_block, runaway=1e3)
+        args.interrupt.rendering = True     # the devices are open: a signal is now a request (Player.run)
         live = [d for d in session.drivers.values() if isinstance(d, audio.LiveInput)]
         in_dev = audio.find_device(args.input_device, "input", 1 + max(d.channel for d in live)) if live else None
     except (PlanError, DeviceError, audio.AudioError) as exc:
@@ -161,10 +168,7 @@ def _start_watcher(args, player):
 
 
 def _run(args, patch, player, watcher):
-    """Play until the end (SIGTERM stops like Ctrl-C); the player's Report."""
-    def terminate(signum, frame):
-        raise KeyboardInterrupt
-    previous = signal.signal(signal.SIGTERM, terminate)
+    """Play until the end or a signal (args.interrupt); the player's Report."""
     if args.console:
         from ..console import HELP, Console
         Console(lambda: player.session).start()
@@ -172,9 +176,8 @@ def _run(args, patch, player, watcher):
     until = f"for {args.seconds:g} s" if args.seconds else "until Ctrl-C"
     print(f"hapticgraph: playing {patch.name!r} {until} on {player.device_name}", file=sys.stderr)
     try:
-        return player.run()
+        return player.run(stop=args.interrupt)
     finally:
-        signal.signal(signal.SIGTERM, previous)
         if watcher is not None:
             watcher.stop()
 
@@ -200,6 +203,7 @@ def _report(args, player, report):
         return 1
     if report.interrupted:
         print(f"hapticgraph: interrupted after {report.seconds:.3f} s; faded out and stopped", file=sys.stderr)
+        return args.interrupt.status()
     return 0
 
 

@@ -2,7 +2,15 @@
 is checked before any work (it must not overwrite a file the run reads, and its size, known from
 the length, the rate, the channels and the format, must fit the format, the disk and the process's
 file-size limit: cli/sizes.py); what was rendered is written whatever stops the render (a signal, a
-safety stop, a full disk). The render streams block by block: memory is flat in the duration."""
+safety stop, a full disk). The render streams block by block: memory is flat in the duration.
+
+An output is whole or absent, never cut: each is written to a temporary file beside it and renamed
+into place finished. Ctrl-C (SIGINT), SIGTERM or SIGHUP during the render ends it at the next block
+and keeps everything rendered: the files are finished (true sizes in the WAV's header), renamed
+into place — shorter than asked — and one line says so (`hapticgraph: interrupted (SIGINT) after
+1.234 s; 54419 samples written to w.wav`), exit status 128 + the signal (130 for Ctrl-C). Before
+the render began (loading, compiling) nothing is written and no temporary file is left; once it
+has ended, a signal changes nothing. `--quiet` prints nothing on success."""
 import math
 import os
 import signal
@@ -13,7 +21,7 @@ from .sizes import size_outputs
 from ..devices import DeviceError, open_drivers
 from ..devices.files import FileSink, OutputError
 from ..devices.wav import AudioFileError
-from ..graph.engine import SafetyStop, StopRequest, stream
+from ..graph.engine import SafetyStop, stream
 from ..graph.errors import PatchError
 from ..graph.patch import load
 from ..graph.program import PlanError
@@ -28,11 +36,22 @@ def cmd_run(args):
         args.seconds = 2.0
     if round(args.seconds * patch.rate) < 1:
         raise UsageError(f"--seconds {args.seconds:g} is less than one sample at {patch.rate:g} Hz")
-    sink = _open_sink(patch, args)
-    outcome = _render_under_signals(sink, patch, args, choices, replayed)
+    interrupt = args.interrupt
+    interrupt.take(signal.SIGTERM, signal.SIGHUP)      # a kill or a hang-up stops it as Ctrl-C does
+    sink = None
+    try:
+        with interrupt.held():         # the temporary files are never made without their owner
+            sink = _open_sink(patch, args)
+        outcome = _render_to(sink, patch, args, choices, replayed, interrupt)
+    except KeyboardInterrupt:
+        if sink is not None:
+            sink.discard()
+        outcome = None
     if outcome is None:
-        return 1
-    return _report(args, sink, *outcome)
+        print("hapticgraph: interrupted before rendering began; nothing written", file=sys.stderr)
+        return interrupt.status()
+    written, errors = sink.close()     # rendering: a signal now is only noted; the files go in place
+    return _report(args, sink, *outcome, written, errors)
 
 
 def _check_options(args, choices):
@@ -86,30 +105,15 @@ def _open_sink(patch, args):
         raise UsageError(f"cannot write beside {out!r}: {exc.strerror or exc}") from None
 
 
-def _render_under_signals(sink, patch, args, choices, replayed):
-    """Render into the sink and close it with SIGINT, SIGTERM and SIGHUP caught; (Streamed, safety
-    problem, output failure, files written, close errors), or None if nothing was rendered."""
-    stop = StopRequest()
-    caught = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    previous = {s: signal.signal(s, stop.request) for s in caught}
-    try:         # the handlers stay until the files are in place: a second signal loses nothing either
-        outcome = _render_to(sink, patch, args, choices, replayed, stop)
-        if outcome is None:
-            return None
-        written, errors = sink.close()
-        return (*outcome, written, errors)
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-
-
 def _report(args, sink, streamed, problem, failure, written, errors):
-    """Print what was rendered and written, and why it stopped; the exit status."""
+    """Print what was rendered and written (nothing with --quiet), and why it stopped; the exit
+    status."""
     rate = streamed.rate
     seconds = streamed.samples / rate
     where = ", ".join(path for path, _ in written) or "-"
-    print(f"{args.patch}: {seconds:g} s at {rate:g} Hz ({args.engine}; compile "
-          f"{streamed.compile_seconds:.2f} s, run {streamed.run_seconds:.2f} s), peak {sink.peak:.4g} -> {where}")
+    if not args.quiet:
+        print(f"{args.patch}: {seconds:g} s at {rate:g} Hz ({args.engine}; compile "
+              f"{streamed.compile_seconds:.2f} s, run {streamed.run_seconds:.2f} s), peak {sink.peak:.4g} -> {where}")
     held = "; ".join(f"{n} samples written to {path}" for path, n in written) or "nothing written"
     for error in errors:
         print(f"hapticgraph: error: {error}", file=sys.stderr)
@@ -119,10 +123,7 @@ def _report(args, sink, streamed, problem, failure, written, errors):
     if streamed.stopped is not None:
         name = signal.Signals(streamed.stopped).name
         print(f"hapticgraph: interrupted ({name}) after {seconds:.3f} s; {held}", file=sys.stderr)
-        return 1
-    if problem == "interrupted":
-        print(f"hapticgraph: interrupted after {seconds:.3f} s; {held}", file=sys.stderr)
-        return 1
+        return 128 + streamed.stopped
     if problem:
         print(f"hapticgraph: stopped after {seconds:.3f} s: {problem}; the force sent was zeroed first, "
               f"what was rendered is written ({held})", file=sys.stderr)
@@ -132,7 +133,8 @@ def _report(args, sink, streamed, problem, failure, written, errors):
 
 def _render_to(sink, patch, args, choices, replayed, stop):
     """Stream the render into the sink; (Streamed, safety problem, output failure), or None when
-    interrupted before rendering began (the sink discarded)."""
+    interrupted before rendering began (the sink discarded). `stop`: the process's Interrupt,
+    rendering from the first block on."""
     try:
         drivers = replayed if replayed is not None else open_drivers(patch, choices)
         streamed = stream(patch, args.seconds, sink, probes=args.probe, engine=args.engine,
@@ -143,12 +145,9 @@ def _render_to(sink, patch, args, choices, replayed, stop):
     except PatchError:                     # found while compiling (a plugin numba cannot compile)
         sink.discard()
         raise
-    except KeyboardInterrupt as exc:
-        if not stop.rendering or getattr(exc, "streamed", None) is None:
-            sink.discard()
-            print("hapticgraph: interrupted before rendering began; nothing written", file=sys.stderr)
-            return None
-        return exc.streamed, "interrupted", None
+    except KeyboardInterrupt:              # raised only before rendering began (Interrupt)
+        sink.discard()
+        return None
     except SafetyStop as exc:
         return exc.streamed, str(exc), None
     except OutputError as exc:
