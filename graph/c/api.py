@@ -2,7 +2,7 @@
 an instance holds, allocated once by NAME_new: no globals but constant tables, any number of
 instances), the port and parameter tables, and NAME_new / _free / _reset / _process / _set / _get.
 `plan` is a graph/c/export.CPlan."""
-from .values import literal
+from .values import NUMBER_ARRAYS, array_kind, literal
 
 HEADER = """\
 /* {title}: a hapticgraph patch exported to C99 (libm only). Generated; do not edit.
@@ -79,9 +79,10 @@ def tables(plan):
     lines.append(f"static const double hg_live0[{max(1, len(plan.live))}] = {_floats(plan.live)};")
     lines.append(f"static const double hg_coef0[{max(1, len(plan.coef))}] = {_floats(plan.coef)};")
     for k, array in enumerate(plan.arrays):
-        ctype = "double" if array.dtype.kind == "f" else "long long"
-        spelled = _floats(array) if ctype == "double" else "{" + (", ".join(f"{int(v)}LL" for v in array) or "0") + "}"
-        lines.append(f"static const {ctype} hg_a{k}_init[{max(1, len(array))}] = {spelled};")
+        ctype = NUMBER_ARRAYS[array_kind(array)][1]
+        flat = array.ravel()
+        spelled = _floats(flat) if ctype == "double" else "{" + (", ".join(literal(int(v)) for v in flat) or "0") + "}"
+        lines.append(f"static const {ctype} hg_a{k}_init[{max(1, flat.size)}] = {spelled};")
     return "\n".join(lines) + "\n"
 
 
@@ -92,7 +93,7 @@ def struct(plan):
         lines.append(f"    double {field}[{max(1, size)}];")
     lines.append(f"    hg_arr buf[{max(1, len(plan.buffers))}];")
     for k, array in enumerate(plan.arrays):
-        lines.append(f"    {'double' if array.dtype.kind == 'f' else 'long long'} a{k}[{max(1, len(array))}];")
+        lines.append(f"    {NUMBER_ARRAYS[array_kind(array)][1]} a{k}[{max(1, array.size)}];")
     return "\n".join(lines + ["};"]) + "\n"
 
 

@@ -120,13 +120,20 @@ class CPlan:
         return Problem(self.patch.file, inst.line, f"block {bp.name!r} ({inst.cls.type_name}) cannot be exported: {why}")
 
     def _refused(self, exc, bp=None):
-        """A Refused translation as a problem at its Python FILE:LINE, naming the blocks concerned."""
+        """A Refused translation as a problem at its Python FILE:LINE (at the first block's line in
+        the patch when the Python has no file), naming the blocks concerned."""
         fns = set(exc.via[-1:])
         users = [b.name for b in self.prog.plans if bp is b or (fns and fns & {b.cls.output, b.cls.update, b.cls.derive})]
-        who = (f"block {users[0]!r} ({self.prog.by_name[users[0]].cls.type_name})" if len(users) == 1 else
-               f"blocks {', '.join(map(repr, users))}" if users else "the kernel")
-        where = "" if exc.file != KERNEL_FILE else " (the generated kernel: a bug of the exporter)"
-        return Problem(exc.file, exc.line, f"{who} cannot be exported to C: {exc.message}{where}")
+        users += [name for gs in self.prog.groups if gs.call[0] in fns for name in gs.group.names]
+        kinds = [self.patch.blocks[u].cls.type_name for u in users]
+        who = (f"block {users[0]!r} ({kinds[0]})" if len(users) == 1 else
+               f"blocks {', '.join(f'{u!r} ({k})' for u, k in zip(users, kinds))}" if users else "the kernel")
+        message = f"{who} cannot be exported to C: {exc.message}"
+        if exc.file == KERNEL_FILE:
+            message += " (in the generated kernel: a bug of the exporter)"
+        if exc.file.startswith("<") and users:
+            return Problem(self.patch.file, self.patch.blocks[users[0]].line, f"{message} ({exc.file})")
+        return Problem(exc.file, exc.line, message)
 
 
 def _structural(bp):

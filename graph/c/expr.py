@@ -6,7 +6,7 @@ import builtins
 import types
 
 from . import ops
-from .values import ARRAYS, NOTHING, Refused, Val, known, text
+from .values import ARRAYS, NOTHING, NUMBER_ARRAYS, Refused, Val, known, text
 
 C_RESERVED = frozenset((
     "auto break case char const continue default do double else enum extern float for goto if inline int "
@@ -65,8 +65,6 @@ class ExprTranslator:
         for n in ast.walk(node):
             if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load) and n.id not in bound:
                 v = self.lookup(n.id, n, strict=False)
-                if v is None and n.id in _BUILTIN_NAMES:
-                    continue                     # tuple, sorted, ...: Python's own, read by eval
                 if v is None or not v.is_known:
                     return None
                 scope[n.id] = v.known
@@ -86,6 +84,8 @@ class ExprTranslator:
             return self.global_value(name, self.names[name], node)
         if name in ops.BUILTINS:
             return Val("fn", known=ops.BUILTINS[name])
+        if name in _BUILTIN_NAMES and not name.startswith("_"):
+            return Val("fn", known=getattr(builtins, name))      # list, tuple, ...: folded, never in C
         if strict:
             self.refuse(f"{name!r} is not defined here (a local used before it is assigned?)", node)
         return None
@@ -122,25 +122,39 @@ class ExprTranslator:
 
     def e_subscript(self, node):
         base = self.expr(node.value)
-        if base.kind in ("rec", "ext"):
-            if not isinstance(node.slice, ast.Tuple) or len(node.slice.elts) != 2:
-                self.refuse("the records and inputs are indexed [sample, column]", node)
+        if base.kind in ("rec", "ext", "arr2") and isinstance(node.slice, ast.Tuple):
+            if len(node.slice.elts) != 2:
+                self.refuse("two indices, [row, column]", node)
             i, c = (self.index(e) for e in node.slice.elts)
+            if base.kind == "arr2":
+                return Val("f", f"{base.c}.p[{self.wrap(i, base.c + '.n')} * {base.c}.m + {self.wrap(c, base.c + '.m')}]")
             return Val("f", f"{base.c}.col[{self.wrap(c, base.c + '.m')}][{self.wrap(i, base.c + '.n')}]")
-        if isinstance(node.slice, (ast.Slice, ast.Tuple)):
-            self.refuse("slices and multi-dimensional indices are not translated", node)
+        if isinstance(node.slice, ast.Slice):
+            return self.slice(base, node.slice, node)
+        if isinstance(node.slice, ast.Tuple):
+            self.refuse("multi-dimensional indices of this value are not translated", node)
         index = self.expr(node.slice)
         if base.kind.startswith("shape_") and index.is_known:
-            dims = {("shape_rec", 1): "m", ("shape_ext", 1): "m"}
-            return Val("i", f"{base.c}.{dims.get((base.kind, index.known), 'n')}", nonneg=True)
+            matrix = base.kind in ("shape_rec", "shape_ext", "shape_arr2") and index.known == 1
+            return Val("i", f"{base.c}.{'m' if matrix else 'n'}", nonneg=True)
         if base.kind == "tuple" and index.is_known:
             return base.items[index.known]
         if base.is_known and index.is_known:
             return ops.fold(lambda b, k: b[k], base, index)
-        if base.kind in ("arr", "iarr"):
-            i = self.index(node.slice, index)
-            return Val("f" if base.kind == "arr" else "i", f"{base.c}.p[{self.wrap(i, base.c + '.n')}]")
+        if base.kind in NUMBER_ARRAYS:
+            i = self.wrap(self.index(node.slice, index), base.c + ".n")
+            if base.kind == "arr2":
+                return Val("arr", f"hg_row({base.c}, {i})")
+            return Val("f" if base.kind == "arr" else "i", f"{base.c}.p[{i}]", nonneg=base.kind == "u32arr")
         self.refuse(f"indexing a {base.kind!r} value by a value known only while running", node)
+
+    def slice(self, base, part, node):
+        """x[lo:hi] of a float array: a view (numba's and numpy's), Python's bounds."""
+        if base.kind != "arr" or part.step is not None:
+            self.refuse("a slice other than x[lo:hi] of a float array", node)
+        lo = "0" if part.lower is None else text(self.index(part.lower))
+        hi = f"{base.c}.n" if part.upper is None else text(self.index(part.upper))
+        return Val("arr", f"hg_slice({base.c}, {lo}, {hi})")
 
     def index(self, node, value=None):
         value = self.expr(node) if value is None else value

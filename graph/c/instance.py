@@ -2,7 +2,7 @@
 at that rate, rings allocated: the only allocation), _reset, _free, _process (pending parameter
 changes applied, then the translated kernel over n samples), _set and _get. `plan` is a
 graph/c/export.CPlan."""
-from .values import literal
+from .values import array_kind, literal
 
 
 def new(plan):
@@ -49,7 +49,7 @@ def process(plan):
     args = ["(long long)n", "s->t", f"hg_view(s->state, {len(plan.state)})", f"hg_view(s->live, {len(plan.live)})",
             f"hg_view(s->coef, {len(plan.coef)})", "rec", "ext"]
     args += [f"s->buf[{k}]" for k in range(len(plan.buffers))]
-    args += [f"hg_{'' if a.dtype.kind == 'f' else 'i'}view(s->a{k}, {len(a)})" for k, a in enumerate(plan.arrays)]
+    args += [_view(k, a) for k, a in enumerate(plan.arrays)]
     lines = [f"int {n}_process({n} *s, const double *const *in, double *const *out, int n)", "{",
              "    hg_rec rec;", "    hg_ext ext;", "    long long code;", "    hg_fpenv saved;",
              "    if (n <= 0) return 0;", "    if (s->dirty) hg_apply(s);",
@@ -61,6 +61,17 @@ def process(plan):
              "    s->t += n;",
              "    return code > INT_MAX ? INT_MAX : code < INT_MIN ? INT_MIN : (int)code;", "}", ""]
     return "\n".join(lines)
+
+
+VIEWS = {"arr": "hg_view", "iarr": "hg_iview", "i32arr": "hg_i32view", "u32arr": "hg_u32view"}
+
+
+def _view(k, array):
+    """The kernel's argument of array k: a view of the instance's copy."""
+    kind = array_kind(array)
+    if kind == "arr2":
+        return f"hg_view2(s->a{k}, {array.shape[0]}, {array.shape[1]})"
+    return f"{VIEWS[kind]}(s->a{k}, {array.size})"
 
 
 def set_get(plan):

@@ -8,13 +8,11 @@ import ast
 import importlib
 import math
 
-import numpy as np
-
 from .. import codegen
 from .expr import Marker
 from .library import Returns
 from .stmt import FunctionTranslator
-from .values import C_TYPES, Refused, Val
+from .values import C_TYPES, Refused, Val, array_kind
 
 KERNEL_FILE = "<kernel>"
 # what the kernel imports from numba's side, in C
@@ -53,20 +51,15 @@ def kernel_names(tree):
     return names, kernel
 
 
-def _array_kind(array):
-    if array.ndim == 1 and array.dtype == np.float64:
-        return "arr"
-    if array.ndim == 1 and array.dtype == np.int64:
-        return "iarr"
-    raise ValueError(f"an array of {array.dtype} in {array.ndim} dimensions")
-
-
 def kernel_parameters(prog, node):
     """[(name, Val)] of the kernel's arguments, typed as the Program holds them."""
     names = [a.arg for a in node.args.args]
     kinds = [Val("i", nonneg=True), Val("i", nonneg=True), Val("arr"), Val("arr"), Val("arr"), Val("rec"), Val("ext")]
     kinds += [Val("arr") for _ in prog.buffer_nodes]
-    kinds += [Val(_array_kind(prog.arrays[ref.index])) for ref in prog.array_nodes]
+    try:
+        kinds += [Val(array_kind(prog.arrays[ref.index])) for ref in prog.array_nodes]
+    except ValueError as exc:
+        raise Refused(KERNEL_FILE, node.lineno, f"the kernel takes {exc}, which C is not given") from None
     if len(names) != len(kinds):
         raise Refused(KERNEL_FILE, node.lineno, f"the kernel takes {len(names)} arguments, the program has {len(kinds)}")
     return list(zip(names, kinds))

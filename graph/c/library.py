@@ -101,7 +101,11 @@ class Library:
 
     def call(self, fn, args, caller):
         """The value of calling fn (a Python function) with these values."""
-        node = tree_of(fn)
+        try:
+            node = tree_of(fn)
+        except Refused as exc:
+            exc.via = exc.via + (fn,)
+            raise
         try:
             names, _ = argument_names(node)
         except ValueError as exc:

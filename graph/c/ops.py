@@ -12,7 +12,7 @@ import builtins
 import math
 import operator
 
-from .values import SCALARS, Val, as_double, known, text
+from .values import NUMBER_ARRAYS, SCALARS, Val, as_double, known, text
 
 _FOLD = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
          ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod, ast.Pow: operator.pow,
@@ -158,7 +158,7 @@ def builtin(fn, args):
     if all(a.is_known for a in args):
         return fold(fn, *args)
     if fn is len:
-        if args[0].kind in ("arr", "iarr"):
+        if args[0].kind in NUMBER_ARRAYS:
             return Val("i", f"{args[0].c}.n", nonneg=True)
         raise ValueError(f"len() of a {args[0].kind!r} value")
     _scalars(fn.__name__, *args)

@@ -7,6 +7,7 @@ from ..denormals import FLUSH_BITS
 
 PRELUDE = r"""#include <limits.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #if defined(__SSE2__) && !defined(HG_NO_FLUSH)
@@ -14,13 +15,28 @@ PRELUDE = r"""#include <limits.h>
 #endif
 
 typedef struct { double *p; long long n; } hg_arr;
+typedef struct { double *p; long long n; long long m; } hg_arr2;
 typedef struct { long long *p; long long n; } hg_iarr;
+typedef struct { int32_t *p; long long n; } hg_i32arr;
+typedef struct { uint32_t *p; long long n; } hg_u32arr;
 typedef struct { double *const *col; long long n; long long m; } hg_rec;
 typedef struct { const double *const *col; long long n; long long m; } hg_ext;
 typedef unsigned int hg_fpenv;
 
 static hg_arr hg_view(double *p, long long n) { hg_arr a; a.p = p; a.n = n; return a; }
+static hg_arr2 hg_view2(double *p, long long n, long long m) { hg_arr2 a; a.p = p; a.n = n; a.m = m; return a; }
 static hg_iarr hg_iview(long long *p, long long n) { hg_iarr a; a.p = p; a.n = n; return a; }
+static hg_i32arr hg_i32view(int32_t *p, long long n) { hg_i32arr a; a.p = p; a.n = n; return a; }
+static hg_u32arr hg_u32view(uint32_t *p, long long n) { hg_u32arr a; a.p = p; a.n = n; return a; }
+/* a row of a matrix, and x[lo:hi] of an array (Python's slice: from the end when negative, clipped) */
+static hg_arr hg_row(hg_arr2 a, long long i) { return hg_view(a.p + i * a.m, a.m); }
+static long long hg_clip(long long i, long long n) { if (i < 0) i += n; return i < 0 ? 0 : i > n ? n : i; }
+static hg_arr hg_slice(hg_arr a, long long lo, long long hi)
+{
+    lo = hg_clip(lo, a.n);
+    hi = hg_clip(hi, a.n);
+    return hg_view(a.p + lo, hi > lo ? hi - lo : 0);
+}
 static long long hg_wrap(long long i, long long n) { return i < 0 ? i + n : i; }
 static double hg_min(double a, double b) { return b < a ? b : a; }
 static double hg_max(double a, double b) { return b > a ? b : a; }

@@ -28,6 +28,9 @@ def tree_of(fn):
     code = getattr(fn, "__code__", None)
     if code is None:
         raise Refused("?", 1, f"{fn!r} is not a Python function; its source cannot be translated")
+    if code.co_filename.startswith("<"):
+        raise Refused(code.co_filename, code.co_firstlineno,
+                      f"{fn.__qualname__} is made at run time from text, with no source file to translate")
     linecache.checkcache(code.co_filename)
     lines = linecache.getlines(code.co_filename, fn.__globals__)
     tree = _module_tree(code.co_filename, "".join(lines)) if lines else None

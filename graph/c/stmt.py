@@ -6,7 +6,7 @@ import ast
 
 from . import ops
 from .expr import ExprTranslator, cname
-from .values import ARRAYS, C_TYPES, Val, join, known, text
+from .values import ARRAYS, C_TYPES, NUMBER_ARRAYS, Val, join, known, text
 
 
 def assigned_names(nodes):
@@ -168,7 +168,7 @@ class FunctionTranslator(ExprTranslator):
             self.emit(f"{cname(name)} = {text(value) if value.scalar else value.c};")
         elif isinstance(target, ast.Subscript):
             base = self.expr(target.value)
-            if base.kind not in ("arr", "iarr", "rec"):
+            if base.kind not in NUMBER_ARRAYS and base.kind != "rec":
                 self.refuse(f"writing into a {base.kind!r} value", target)
             place = self.expr(ast.copy_location(ast.Subscript(target.value, target.slice, ast.Load()), target))
             if not value.scalar:
@@ -228,6 +228,10 @@ class FunctionTranslator(ExprTranslator):
 
     def s_for(self, node):
         it = node.iter
+        ranged = isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "range"
+        over = None if ranged else self.evaluate(it)
+        if over is not None and not node.orelse:
+            return self.unroll(node, over.known)
         if node.orelse or not isinstance(node.target, ast.Name) or not (
                 isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "range"
                 and self.lookup("range", it).known is ops.BUILTINS["range"] and not it.keywords):
@@ -254,6 +258,28 @@ class FunctionTranslator(ExprTranslator):
             self.emit(f"    {cname(var)} = {counter};")
         self.inside(node.body)
         self.emit("}")
+
+    def unroll(self, node, items):
+        """`for` over a value known while translating (a parameter's list, a tuple of pairs): the
+        body once per item, the target bound to it."""
+        if any(isinstance(n, (ast.Break, ast.Continue)) for n in ast.walk(node)):
+            self.refuse("break or continue in a loop over a known list", node)
+        try:
+            items = list(items)
+        except TypeError:
+            self.refuse("a for loop over something that is not iterable", node)
+        if len(items) > 4096:
+            self.refuse("a loop over more than 4096 known items", node)
+        targets = node.target.elts if isinstance(node.target, ast.Tuple) else [node.target]
+        for item in items:
+            values = list(item) if len(targets) > 1 else [item]
+            if len(values) != len(targets) or not all(isinstance(t, ast.Name) for t in targets):
+                self.refuse("unpacking a known item into names", node)
+            for t, v in zip(targets, values):
+                self.env[t.id] = known(v)
+            if self.block(node.body):
+                return True
+        return False
 
     def s_while(self, node):
         if node.orelse:

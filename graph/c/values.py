@@ -2,8 +2,8 @@
 while translating (a number, a flag, a parameter's list), which folds as Python folds it.
 
 Types: "f" a double, "i" a 64-bit integer (Python's int as numba types it), "b" a flag (an int
-0/1 in C); "arr" a float64 array (`hg_arr`: pointer and length), "iarr" an integer array
-(`hg_iarr`); "rec" the kernel's records (`hg_rec`: the output columns) and "ext" its inputs
+0/1 in C); "arr" a float64 array (`hg_arr`: pointer and length), "arr2" a float64 matrix, "iarr",
+"i32arr", "u32arr" integer arrays (NUMBER_ARRAYS); "rec" the kernel's records (`hg_rec`: the output columns) and "ext" its inputs
 (`hg_ext`); "fn" a Python function or a math function, "mod" a module, "shape" an array's shape,
 "known" any other value known while translating (a list, a text), never spelled in C; "tuple"
 a tuple of values, "multi" a call that returns several, "none" a call that returns nothing,
@@ -16,7 +16,11 @@ from typing import Any
 import numpy as np
 
 SCALARS = ("b", "i", "f")
-ARRAYS = {"arr": "hg_arr", "iarr": "hg_iarr", "rec": "hg_rec", "ext": "hg_ext"}
+# arrays of numbers: kind -> (C struct, C element type, numpy dtype); "arr2" a C-ordered matrix
+NUMBER_ARRAYS = {"arr": ("hg_arr", "double", "float64"), "arr2": ("hg_arr2", "double", "float64"),
+                 "iarr": ("hg_iarr", "long long", "int64"), "i32arr": ("hg_i32arr", "int32_t", "int32"),
+                 "u32arr": ("hg_u32arr", "uint32_t", "uint32")}
+ARRAYS = {**{k: v[0] for k, v in NUMBER_ARRAYS.items()}, "rec": "hg_rec", "ext": "hg_ext"}
 # "fp": the floating-point environment saved around the sample loop (graph/fpenv.py's flush_enter)
 C_TYPES = {"f": "double", "i": "long long", "b": "int", "fp": "hg_fpenv", **ARRAYS}
 NOTHING = object()
@@ -49,6 +53,16 @@ class Val:
     @property
     def scalar(self):
         return self.kind in SCALARS
+
+
+def array_kind(array):
+    """The kind of a numpy array the kernel takes; ValueError for one C is not given."""
+    for kind, (_, _, dtype) in NUMBER_ARRAYS.items():
+        if array.dtype == np.dtype(dtype) and array.ndim == (2 if kind == "arr2" else 1):
+            if array.ndim == 2 and not array.flags.c_contiguous:
+                break
+            return kind
+    raise ValueError(f"an array of {array.dtype} in {array.ndim} dimension(s)")
 
 
 def kind_of(value):
@@ -112,5 +126,5 @@ def as_double(v):
     return text(v) if v.kind == "f" else f"(double)({text(v)})"
 
 
-__all__ = ["ARRAYS", "C_TYPES", "NOTHING", "SCALARS", "Refused", "Val", "as_double", "join", "kind_of", "known",
+__all__ = ["ARRAYS", "NUMBER_ARRAYS", "array_kind", "C_TYPES", "NOTHING", "SCALARS", "Refused", "Val", "as_double", "join", "kind_of", "known",
            "literal", "text"]
