@@ -22,6 +22,7 @@ A law's `phase` says where its loop runs in the step:
 The linear law keeps its own CSR path (`network_step`). Points beyond the network's cells (ground,
 driven points, hammers: members.py) come first in each step (`points_step`, steps.py).
 """
+import linecache
 import sys
 
 import numpy as np
@@ -46,9 +47,12 @@ def {name}(pos, vel, frc, ia, ib, prm, io):
 
 def _define(module_name, name, source, names):
     """A function built from `source` in module `module_name`, set as its attribute `name` (so
-    a generated kernel can import it) and marked @helper."""
+    a generated kernel can import it) and marked @helper. Its text is kept in linecache, so a
+    traceback shows its lines and the C export (hapticgraph.graph.c) reads it as any source."""
     space = dict(names, __name__=module_name)
-    exec(compile(source.format(name=name), f"<{module_name}.{name}>", "exec"), space)  # noqa: S102
+    text, filename = source.format(name=name), f"<{module_name}.{name}>"
+    linecache.cache[filename] = (len(text), None, text.splitlines(True), filename)
+    exec(compile(text, filename, "exec"), space)  # noqa: S102
     fn = space[name]
     setattr(sys.modules[module_name], name, fn)
     return helper(fn)

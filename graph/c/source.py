@@ -28,11 +28,12 @@ def tree_of(fn):
     code = getattr(fn, "__code__", None)
     if code is None:
         raise Refused("?", 1, f"{fn!r} is not a Python function; its source cannot be translated")
-    if code.co_filename.startswith("<"):
-        raise Refused(code.co_filename, code.co_firstlineno,
-                      f"{fn.__qualname__} is made at run time from text, with no source file to translate")
     linecache.checkcache(code.co_filename)
     lines = linecache.getlines(code.co_filename, fn.__globals__)
+    if not lines and code.co_filename.startswith("<"):
+        raise Refused(code.co_filename, code.co_firstlineno,
+                      f"{fn.__qualname__} is made at run time from text that is not kept (linecache): "
+                      "there is no source to translate")
     tree = _module_tree(code.co_filename, "".join(lines)) if lines else None
     if tree is None:
         raise Refused(code.co_filename, code.co_firstlineno, f"the source of {fn.__qualname__} cannot be read")

@@ -90,3 +90,31 @@ def test_plain_c99_without_a_writable_global(c_export, tmp_path):
     undefined = {s for s, k in kinds.items() if k == "U"}
     assert undefined <= {"calloc", "free", "memcpy", "memset", "sin", "cos", "floor", "nearbyint", "exp", "fmod",
                          "copysign", "pow", "sqrt", "log", "fabs", "sincos"}, undefined
+
+
+def test_a_check_that_fails_at_the_host_rate_refuses_it(c_export, write_patch, same_bits):
+    """A velocity estimator's cutoff must stay below half the rate (its block's `check`, translated):
+    exported at 44.1 kHz with a 9.5 kHz cutoff, NAME_new(18000) is refused, NAME_new(19500) runs."""
+    path = write_patch("""
+        hapticgraph: 1
+        rate: 44100
+        blocks:
+          osc: {type: wavetable, frequency: 220.0, amplitude: 0.001}
+          est: {type: velocity_estimator, cutoff: 9500.0}
+          out: {type: audio_out, channels: 1}
+        connect:
+          - osc.out -> est.in
+          - est.out -> out.ch0
+        """)
+    built = c_export(path)
+    built.run(18000, 100, expect=3)
+    text = path.read_text(encoding="utf-8").replace("rate: 44100", "rate: 19500")
+    expected = hapticgraph.render(load(path, text=text), seconds=0.1).audio
+    assert np.abs(expected).max() > 0.0
+    assert same_bits(built.run(19500, 1950), expected)
+
+
+def test_a_lattice_runs_at_its_patch_rate_only(c_export):
+    built = c_export(ROOT / "patches" / "cymatic_string.yaml")
+    built.run(48000, 100, expect=3)
+    assert np.abs(built.run(44100, 4410)).max() > 0.0

@@ -10,9 +10,10 @@ from project_env import ROOT
 
 WAVEGUIDES = ["buzz_50hz", "feedback_comb", "fig7_bowed_string", "fig8_pluck_damp", "midi_melody",
               "plucked_string", "poly_strings", "string_bound_explicit", "string_bound_implicit"]
-# fused mass-spring groups: their step functions translated the same way (stencils, CSR networks)
+# fused mass-spring groups: their step functions translated the same way (stencils, CSR networks,
+# the nonlinear links' loops blocks/massspring/laws.py makes from text)
 LATTICES = ["babe_is_sleeping", "bowed_lattice_string", "cymatic_block", "cymatic_sheet", "cymatic_string",
-            "force_feedback_mic", "hyper_4d", "string_drives_plate"]
+            "force_feedback_mic", "hyper_4d", "piano_hammer", "string_drives_plate", "string_rattle"]
 # what a haptic block outputs of its sensor columns (blocks/device.py: Haptic.output)
 SENSOR = {"sensor_x": "x", "sensor_v": "v"}
 
