@@ -67,3 +67,27 @@ def test_lv2apply_gives_the_samples_of_hapticgraph_rounded_to_float32(bundle, co
     if controls:
         plain = hapticgraph.render(bundle / "ks_in.yaml", seconds=0.5).audio
         assert not np.array_equal(got, plain.astype(np.float32).astype(np.float64))
+
+
+def test_install_copies_the_bundle_into_the_users_lv2_folder(bundle, monkeypatch):
+    home = bundle / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    assert main(["export", str(bundle / "ks_in.yaml"), "--to", "lv2", "--out", str(bundle / "again"),
+                 "--name", "ks_home", "--install"]) == 0
+    installed = home / ".lv2" / "ks_home.lv2"
+    built = bundle / "again" / "ks_home.lv2"
+    assert sorted(p.name for p in installed.iterdir()) == sorted(p.name for p in built.iterdir())
+    proc = subprocess.run(["lv2info", "urn:hapticgraph:ks_home"], env=dict(os.environ, LV2_PATH=str(home / ".lv2")),
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and "Symbol:      damp_gain" in proc.stdout, proc.stderr
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--to", "c", "--name", "9lives"], "--name '9lives': a C identifier is expected"),
+    (["--to", "c", "--install"], "--install copies an LV2 bundle: use it with --to lv2"),
+])
+def test_usage_errors(bundle, capsys, args, said):
+    assert main(["export", str(bundle / "ks_in.yaml"), "--out", str(bundle / "x"), *args]) == 2
+    assert said in capsys.readouterr().err
+    assert not (bundle / "x").exists()
