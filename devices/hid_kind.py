@@ -68,12 +68,11 @@ class HidKind(DriverKind):
         """Load the entry's profile, recording or matched device, report its problems (an unknown
         profile at the patch's line, a bad one at the profile's FILE:LINE, a bad recording at its
         own) and attach what it gave to the entry."""
-        given = [k for k in SOURCES if k in spec]
-        if len(given) != 1:
-            what = "one of" if not given else f"only one of (it has {' and '.join(given)})"
-            problems.add(spec.line, f"device {name!r}: driver hid needs {what} 'profile' (a profile's name or "
-                                    f"file), 'recording' (a hid-recorder file) or 'match' (a connected device)")
+        wrong = _sources_problem(name, spec)
+        if wrong is not None:
+            problems.add(spec.line, wrong)
             return
+        given = [k for k in SOURCES if k in spec]
         line = spec.lines.get(given[0], spec.line)
         if given[0] == "profile":
             self._check_profile(name, spec, base, problems, line)
@@ -137,11 +136,24 @@ class HidKind(DriverKind):
     def open(self, name, spec, patch):
         from .hid import HidDriver       # the driver's module (hidapi, the engine): when opened
         base = os.path.dirname(os.path.abspath(patch.file)) if patch.file else os.getcwd()
+        wrong = _sources_problem(name, spec)     # `--device NAME=hid` over another driver's entry
+        if wrong is not None:
+            raise DeviceError(wrong)
         if "profile" in spec:
             # the profile the loader attached (its file relative to the patch) unless a setting names another
             return HidDriver(name, spec, profile=attached(spec, "hid_profile"), base=os.getcwd())
         layout, transport = _layout_module().open_source(name, spec, base)
         return HidDriver(name, spec, transport=transport, profile=layout)
+
+
+def _sources_problem(name, spec):
+    """What is wrong with an entry that names not exactly one of SOURCES, or None."""
+    given = [k for k in SOURCES if k in spec]
+    if len(given) == 1:
+        return None
+    what = "one of" if not given else f"only one of (it has {' and '.join(given)})"
+    return (f"device {name!r}: driver hid needs {what} 'profile' (a profile's name or file), 'recording' "
+            f"(a hid-recorder file) or 'match' (a connected device)")
 
 
 __all__ = ["HidKind"]

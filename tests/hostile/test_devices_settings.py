@@ -36,7 +36,7 @@ def patch(tmp_path):
 @pytest.mark.parametrize("device, message", [
     ("finger=hid,profle=haptic_1dof",
      "device 'finger' (hid): unknown setting 'profle' (did you mean 'profile'?); the hid driver accepts: "
-     "max_force, profile, vendor_id, product_id, serial, path"),
+     "max_force, profile, recording, vendor_id, product_id, serial, path"),
     ("finger=simulated,scrpt=1", "unknown setting 'scrpt'; the simulated driver accepts: max_force, mass, "
                                  "hand_stiffness, hand_damping, hold"),
     ("finger=hdi", "unknown driver 'hdi' (did you mean 'hid'?); the drivers are: hid, midi, osc, replay, serial, simulated"),
@@ -47,7 +47,7 @@ def patch(tmp_path):
     ("finger=simulated,max_force=60", "max_force 60 N is above the simulated device's bound, 50 N"),
     ("finger=hid,profile=haptic_1dof,vendor_id=70000", "vendor_id=70000: 70000 is greater than the maximum"),
     ("finger=hid,profile=no_such_profile", "no HID profile 'no_such_profile' (shipped: gamepad, haptic_1dof, mouse)"),
-    ("finger=hid", "driver hid needs a `profile:`"),
+    ("finger=hid", "driver hid needs one of 'profile' (a profile's name or file), 'recording'"),
     ("nobody=hid,profile=gamepad", "the patch declares no device named nobody (its devices: finger)"),
     ("finger=simulated,max_force", "'max_force' is not a setting KEY=VALUE"),
 ])

@@ -69,7 +69,7 @@ def test_a_signal_keeps_everything_rendered(tmp_path, signum):
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 1, stderr
+    assert proc.returncode == 128 + signum, stderr        # the shells' convention: 130 for SIGINT
     assert "Traceback" not in stderr
     name = signal.Signals(signum).name
     assert f"hapticgraph: interrupted ({name}) after " in stderr
