@@ -227,24 +227,16 @@ def cmd_devices(args):
               f"{c['rate']:g} Hz{'  (' + ', '.join(marks) + ')' if marks else ''}")
     from ..devices.midi import port_lines
     print(*port_lines(), sep="\n")
-    print("HID devices (hidapi):")
+    print("HID devices (hidapi; inputs named from each device's report descriptor):")
     try:
-        from ..devices.hid import list_hid_devices
-        hids = list_hid_devices()
+        from ..devices.hid_match import connected, device_lines
+        hids = connected()
     except (ImportError, AttributeError) as exc:
         print(f"  unavailable: {exc}")
         return 0
     except Exception as exc:  # noqa: BLE001 - the listing must not crash on a busy device
         print(f"  unavailable: {type(exc).__name__}: {exc}")
         return 0
-    if not hids:
-        print("  none found")
-    for h in hids:
-        if isinstance(h, dict):
-            vid, pid = h.get("vendor_id", 0), h.get("product_id", 0)
-            name = " ".join(x for x in (h.get("manufacturer_string"), h.get("product_string")) if x) or "?"
-            extra = f"  profile {h['profile']}" if h.get("profile") else ""
-            print(f"  {vid:04x}:{pid:04x}  {name}  {h.get('path', b'')!s}{extra}")
-        else:
-            print(f"  {h}")
+    for line in device_lines(hids) or ["  none found"]:
+        print(line)
     return 0

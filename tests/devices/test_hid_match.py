@@ -140,6 +140,16 @@ def test_devices_listing(devices):
     assert lines[7].startswith("      gamepad, consumer; inputs: button1")
 
 
+def test_the_devices_command_lists_each_device_with_its_inputs_and_force_feedback(devices, capsys):
+    from hapticgraph.cli import main
+    assert main(["devices"]) == 0
+    out = capsys.readouterr().out
+    hid = out[out.index("HID devices"):].splitlines()
+    assert "  06a3:ff0d  Saitek Saitek Cyborg Force  /dev/hidraw1" in hid
+    assert any(line.startswith("      joystick; inputs: x, y, rudder, throttle") and
+               line.endswith("force feedback: yes (HID PID)") for line in hid), hid
+
+
 def test_real_hidapi_finds_nothing_here():
     if hid_transports.list_hid_devices():
         pytest.skip("a HID device is connected")
