@@ -11,6 +11,7 @@ import numpy as np
 from .interpreter import Interpreter
 from .isolate import compiled
 from .program import Program
+from .progress import progress_bar
 
 ENGINES = ("compiled", "python")
 STOP_SECONDS = 5.0      # how long a device may take to stop before it is abandoned (Runner.stop)
@@ -225,25 +226,6 @@ class ArraySink:
         return Render(self.audio[:upto], probes, streamed.rate, streamed.compile_seconds, streamed.run_seconds)
 
 
-class _NoBar:
-    def update(self, n):
-        pass
-
-    def close(self):
-        pass
-
-
-def progress_bar(total, label, enabled=None):
-    """A tqdm bar on stderr (samples, rate, ETA) when it is a terminal, or when `enabled`."""
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled or total <= 0:
-        return _NoBar()
-    from tqdm import tqdm
-    return tqdm(total=total, desc=label, unit=" samples", unit_scale=True, file=sys.stderr,
-                dynamic_ncols=True, leave=False)
-
-
 def stream(patch, seconds, sink, probes=(), engine="compiled", chunk=1 << 14, progress=None, drivers=None,
            safety=False, runaway=1e3, stop=None):
     """Render `seconds` of a patch block by block into `sink`; returns a Streamed.
@@ -282,7 +264,7 @@ def _stream(session, seconds, sink, probes, progress, safety, stop, out):
     total = int(round(seconds * prog.rate))
     width = prog.channels + len(probes)
     sink.start(prog.rate, prog.channels, probes, total)
-    bar = progress_bar(total, f"rendering {prog.patch.name}", progress)
+    bar = progress_bar(total, f"rendering {prog.patch.name}", " samples", progress, unit_scale=True, leave=False)
     start = time.perf_counter()
     try:
         while out.samples < total:

@@ -15,6 +15,7 @@ import sys
 import time
 import uuid
 
+from ..graph.progress import progress_bar
 from .manifest import SAME_EACH_TIME, Manifest, SweepError, distinct
 from .spec import SweepSpec, load_spec
 from .worker import render_variant
@@ -168,7 +169,7 @@ def submit_all(client, spec, todo, manifest, progress=None, score=None, tally=No
         return client.submit(render_variant, spec.bundle, _job(spec, variant), score,
                              key=f"hapticgraph-variant-{variant.id}-{token}{alone}", pure=False)
     futures = {submit(v): v for v in todo}
-    bar = _bar(len(todo), progress)
+    bar = progress_bar(len(todo), "sweep", " variant", progress)
     suspects = []
 
     def take(future):
@@ -213,27 +214,6 @@ def _outcome(future, variant):
 def _row(variant, status, error):
     return {"id": variant.id, "status": status, "error": error, "audio": "", "seconds_compile": "",
             "seconds_run": "", "worker": ""}
-
-
-class _NoBar:
-    def update(self, n):
-        pass
-
-    def set_postfix(self, **kwargs):
-        pass
-
-    def close(self):
-        pass
-
-
-def _bar(total, enabled=None):
-    """tqdm over the variants (done, failed, rate, ETA) on standard error when it is a terminal."""
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled:
-        return _NoBar()
-    from tqdm import tqdm
-    return tqdm(total=total, desc="sweep", unit=" variant", file=sys.stderr, dynamic_ncols=True)
 
 
 __all__ = ["sweep", "connect", "submit_all", "Tally", "SweepError", "ALLOWED_FAILURES", "SCHEDULER_SETTINGS"]

@@ -126,8 +126,8 @@ def test_progress_bar_on_a_terminal_only(patches_dir, tmp_path):
     assert "rendering Karplus-Strong string:" in shown and "/2.65M" in shown and " samples/s]" in shown
     quiet = _run_on_a_terminal(["run", patch, "--seconds", 60, "--out", tmp_path / "b.wav", "--quiet"])
     assert "rendering" not in quiet and "samples/s" not in quiet
-    from hapticgraph.graph.engine import _NoBar, progress_bar
-    assert isinstance(progress_bar(1000, "x"), _NoBar)           # pytest's stderr is no terminal
+    from hapticgraph.graph.progress import NoBar, progress_bar
+    assert isinstance(progress_bar(1000, "x", " samples"), NoBar)     # pytest's stderr is no terminal
 
 
 def test_a_patch_with_nothing_to_keep_still_renders(write_patch):
