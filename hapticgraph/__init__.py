@@ -18,7 +18,7 @@ import warnings
 
 from .graph.registry import provide_drivers as _provide_drivers
 
-__version__ = "0.1.0"        # the one source: pyproject.toml reads it, `hapticgraph --version` prints it
+__version__ = "0.2.0.dev0"   # the one source: pyproject.toml reads it, `hapticgraph --version` prints it
 
 
 def _device_drivers():
