@@ -1,0 +1,87 @@
+"""`driver: evdev`: a Linux force-feedback joystick or wheel driven by the kernel's own driver
+(hid-pidff, hid-lg4ff, ...) through evdev (its driver: hapticgraph.devices.evdev_ff; its inputs
+named as a HID device's: hapticgraph.devices.evdev_layout).
+
+    wheel: {driver: evdev, match: {name: "G29"}, max_force: 0.4}
+    left:  {driver: evdev, match: {name: "SideWinder", index: 0}}
+    right: {driver: evdev, match: {name: "SideWinder", index: 1}}
+
+`max_force` is a fraction of the device's full scale (0 … 1, default 0.5): the patch's force
+reaches the device as that fraction. The device is looked for when the patch loads (its ports
+are its capabilities'), so a patch naming one loads only while it is connected.
+"""
+from .driver_kind import NUMBER, DriverKind, attach, attached
+from .errors import DeviceError
+from . import evdev_layout
+from .evdev_layout import MATCH_KEYS, find
+
+USB_ID = {"type": "integer", "minimum": 0, "maximum": 0xFFFF}
+
+
+class EvdevKind(DriverKind):
+    """A kernel force-feedback device: its inputs are its evdev capabilities, its force one
+    constant-force effect."""
+
+    name = "evdev"
+    required = ("match",)
+    carries = (("evdev_layout", "match"),)
+
+    def settings(self):
+        return {"max_force": {**NUMBER, "exclusiveMinimum": 0, "maximum": 1.0, "default": 0.5,
+                              "description": "the largest force sent, a fraction of the device's full scale; "
+                                            "the patch's force is in that unit"},
+                "match": {"type": "object", "minProperties": 1, "additionalProperties": False,
+                          "description": "the input device (/dev/input/event*)",
+                          "properties": {"vendor": {**USB_ID, "description": "USB vendor id"},
+                                         "product": {**USB_ID, "description": "USB product id"},
+                                         "name": {"type": "string", "minLength": 1,
+                                                  "description": "a part of the device's name"},
+                                         "serial": {"type": "string", "description": "its serial (evdev uniq)"},
+                                         "path": {"type": "string", "minLength": 1,
+                                                  "description": "its node, e.g. /dev/input/event7"},
+                                         "index": {"type": "integer", "minimum": 0,
+                                                   "description": "which of the matching devices (0: the first)"}}},
+                "axis": {"enum": ["x", "y"], "default": "x",
+                         "description": "the axis the force pushes along (a wheel's is x)"},
+                "slew": {**NUMBER, "exclusiveMinimum": 0, "maximum": 1000, "default": 20.0,
+                         "description": "how fast the force may rise, in full scales per second"},
+                "autocenter": {**NUMBER, "minimum": 0, "maximum": 1, "default": 1.0,
+                               "description": "the autocentring left when playing ends (0 … 1 of full; off "
+                                              "while playing)"}}
+
+    def check(self, name, spec, base, problems):
+        match = spec.get("match")
+        if not isinstance(match, dict) or not match or any(k not in MATCH_KEYS for k in match):
+            return                            # the schema says so
+        try:
+            device, layout = find(match, evdev_layout.evdev_module())
+        except DeviceError as exc:            # no such device; python-evdev missing
+            problems.add(spec.lines.get("match", spec.line), f"device {name!r}: {exc}")
+            return
+        device.close()
+        attach(spec, "evdev_layout", layout)
+
+    def axes(self, spec):
+        layout = attached(spec, "evdev_layout")
+        return list(layout.ports) if layout is not None else []
+
+    def open(self, name, spec, patch):
+        from .evdev_ff import EvdevDriver     # the driver's module (the engine, numpy): when opened
+        if not isinstance(spec.get("match"), dict):
+            raise DeviceError(f"device {name!r}: driver evdev needs `match:` (vendor, product, name, serial, "
+                              f"path or index)")
+        module = evdev_layout.evdev_module()      # looked up here: the tests replace it
+        device, layout = find(spec["match"], module)
+        expected = attached(spec, "evdev_layout")
+        if expected is not None and expected.ports != layout.ports:
+            device.close()
+            raise DeviceError(f"device {name!r}: {layout.name!r} at {layout.path} has other inputs than when "
+                              f"the patch loaded (another device took its place?); load the patch again")
+        try:
+            return EvdevDriver(name, spec, device, layout, module)
+        except DeviceError:
+            device.close()
+            raise
+
+
+__all__ = ["EvdevKind"]
