@@ -6,12 +6,23 @@
     map:
       - {param: str.tension, cc: 74, min: 1.0e4, max: 2.0e5, curve: exponential, smooth: 0.02}
       - {param: bow.pressure, osc: /bow/pressure, min: 0, max: 2}
+      - {param: sheet.mass, axis: stick.x, min: 0.001, max: 0.01, curve: exponential, hold: stick.button1}
 
 `map:` is a shorthand, expanded before the patch is wired (the way Faust's `[midi:ctrl 74]`
 metadata binds a slider): each entry becomes ordinary blocks and one connection into the live
 parameter (every live parameter is an input port) —
 - `cc: N` → a `midi_cc` block (`number: N`, `min`, `max`, `curve`, `smooth`, `channel`);
-- `osc: /address` → an `osc_in` block (values 0–1) and a `scale` block onto [min, max].
+- `osc: /address` → an `osc_in` block (values 0–1) and a `scale` block onto [min, max];
+- `axis: DEVICE.INPUT` → a `scale` block from the input's range onto [min, max], fed by the
+  `haptic` block of that device (one is added, `map_DEVICE`, when the patch has none). DEVICE
+  names an entry under devices: (a HID, evdev or simulated device; a `haptic` block's name works
+  too) and INPUT one of its inputs: x, v or an axis or button its driver names (y, rz, throttle,
+  hat_x, button1, ...). The input's range is `range: [lo, hi]`, else −1 … 1 for a centred axis
+  (x, y, z, rx, ry, rz, dial, wheel, rudder, steering, hats, v) and 0 … 1 for the rest
+  (throttle, slider, pedals, buttons), as the HID and evdev drivers normalise them.
+  `hold: DEVICE.BUTTON` is Cymatic's suppress-then-jump button: while it is held the parameter
+  keeps its value, on release it jumps to where the axis is (a `sample_hold` block,
+  `map_BLOCK_PARAM_hold`).
 The new blocks are named `map_BLOCK_PARAM` and report problems at the entry's line. `device:`
 names the controller; it may be left out when the patch has exactly one that can serve the entry.
 `min` and `max` default to the parameter's declared range.
@@ -24,6 +35,10 @@ import math
 from ..graph.source import LDict, LList
 
 NUMBER = {"type": "number"}
+PORT_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*\.[A-Za-z_][A-Za-z0-9_]*(?![\s\S])"
+# inputs the HID and evdev drivers give −1 … 1 (hapticgraph.devices.hid_usages.CENTRED, evdev_layout.CENTRED)
+CENTRED = ("x", "y", "z", "rx", "ry", "rz", "v", "vx", "vy", "vz", "vbrx", "vbry", "vbrz", "dial", "wheel", "rudder",
+           "steering", "aileron", "elevator")
 ITEM = {
     "type": "object", "required": ["param"], "additionalProperties": False,
     "properties": {
@@ -37,13 +52,19 @@ ITEM = {
         "max": {**NUMBER, "description": "the parameter's value at the controller's maximum"},
         "curve": {"enum": ["linear", "exponential"], "default": "linear"},
         "smooth": {**NUMBER, "minimum": 0, "maximum": 10, "description": "smoothing time constant [s] (cc only)"},
+        "axis": {"type": "string", "pattern": PORT_PATTERN,
+                 "description": "DEVICE.INPUT: a device's axis or button (stick.x, wheel.throttle, pad.button3)"},
+        "hold": {"type": "string", "pattern": PORT_PATTERN,
+                 "description": "DEVICE.BUTTON: while held the parameter keeps its value; on release it jumps"},
+        "range": {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 2,
+                  "description": "the axis's own range [lo, hi] (default −1 … 1 centred, 0 … 1 otherwise)"},
     },
 }
 
 
 def map_schema():
     return {"type": "array", "items": ITEM,
-            "description": "bind live parameters to MIDI controllers or OSC addresses"}
+            "description": "bind live parameters to MIDI controllers, OSC addresses or device axes"}
 
 
 def _is_num(v):
@@ -185,9 +206,15 @@ def _device(entry, line, doc, registry, block_type, problems):
 
 def _expand_one(entry, line, doc, registry, blocks, connect, problems):
     where = f"map: param {entry['param']!r}"
-    if ("cc" in entry) == ("osc" in entry):
-        problems.add(line, f"{where}: give either `cc: NUMBER` or `osc: /address`")
+    if sum(k in entry for k in ("cc", "osc", "axis")) != 1:
+        problems.add(line, f"{where}: give either `cc: NUMBER`, `osc: /address` or `axis: DEVICE.INPUT`")
         return
+    if "axis" in entry:
+        _expand_axis(entry, line, where, doc, registry, blocks, connect, problems)
+        return
+    for key in ("hold", "range"):
+        if key in entry:
+            problems.add(entry.lines.get(key, line), f"{where}: `{key}` applies to an axis mapping only")
     if "osc" in entry and "smooth" in entry:
         problems.add(entry.lines.get("smooth", line), f"{where}: `smooth` applies to a cc mapping only")
     target = _target(entry, line, doc, registry, problems)
@@ -215,6 +242,84 @@ def _expand_one(entry, line, doc, registry, blocks, connect, problems):
         connect.lines.append(line)
     connect.append(f"{source}.out -> {block}.{param.name}")
     connect.lines.append(line)
+
+
+def _expand_axis(entry, line, where, doc, registry, blocks, connect, problems):
+    if "smooth" in entry or "channel" in entry:
+        key = "smooth" if "smooth" in entry else "channel"
+        problems.add(entry.lines.get(key, line), f"{where}: `{key}` applies to a cc mapping only")
+    target = _target(entry, line, doc, registry, problems)
+    axis = _device_port(entry, "axis", line, where, doc, registry, problems)
+    hold = _device_port(entry, "hold", line, where, doc, registry, problems) if "hold" in entry else None
+    span = _range(entry, line, target[1], problems) if target is not None else None
+    if target is None or axis is None or span is None or ("hold" in entry and hold is None):
+        return
+    block, param = target
+    lo_hi = entry.get("range") or ([-1.0, 1.0] if _centred(axis[1]) else [0.0, 1.0])
+    if lo_hi[0] == lo_hi[1]:
+        problems.add(entry.lines.get("range", line), f"{where}: range needs two different values")
+        return
+    name = _free(blocks, f"map_{block}_{param.name}")
+    _add(blocks, name, {"type": "scale", "in_range": [float(v) for v in lo_hi], "out_range": list(span),
+                        "curve": entry.get("curve", "linear")}, entry, line)
+    for source, _, device in (axis, hold) if hold is not None else (axis,):
+        if source not in blocks:
+            _add(blocks, source, {"type": "haptic", "device": device}, entry, line)
+    _connect(connect, f"{axis[0]}.{axis[1]} -> {name}.in", line)
+    if hold is None:
+        _connect(connect, f"{name}.out -> {block}.{param.name}", line)
+        return
+    held = _free(blocks, f"{name}_hold")
+    _add(blocks, held, {"type": "sample_hold"}, entry, line)
+    _connect(connect, f"{name}.out -> {held}.in", line)
+    _connect(connect, f"{hold[0]}.{hold[1]} -> {held}.hold", line)
+    _connect(connect, f"{held}.out -> {block}.{param.name}", line)
+
+
+def _centred(port):
+    base = port.rstrip("0123456789")
+    return base in CENTRED or base.startswith("hat") and base.endswith(("_x", "_y"))
+
+
+def _free(blocks, name):
+    while name in blocks:
+        name += "_"
+    return name
+
+
+def _connect(connect, text, line):
+    connect.append(text)
+    connect.lines.append(line)
+
+
+def _device_port(entry, key, line, where, doc, registry, problems):
+    """(haptic block name, port, device) of the entry's `axis` or `hold` (DEVICE.INPUT, or BLOCK.INPUT of
+    a haptic block); the block is `map_DEVICE`, to be added, when the patch binds the device to
+    none. None if wrong (reported)."""
+    text, at = entry[key], entry.lines.get(key, line)
+    first, _, port = text.partition(".")
+    devices = doc.get("devices") if isinstance(doc.get("devices"), dict) else {}
+    blocks = doc.get("blocks") if isinstance(doc.get("blocks"), dict) else {}
+    bound = {spec.get("device"): b for b, spec in blocks.items()
+             if isinstance(spec, dict) and spec.get("type") == "haptic" and isinstance(spec.get("device"), str)}
+    if first in devices:
+        device, block = first, bound.get(first, f"map_{first}")
+    elif isinstance(blocks.get(first), dict) and blocks[first].get("type") == "haptic":
+        device, block = blocks[first].get("device"), first
+    else:
+        problems.add(at, f"{where}: {key} {text!r}: no device named {first!r} under devices: "
+                         f"(devices: {', '.join(devices) or 'none'})")
+        return None
+    spec = devices.get(device)
+    kind = _kind(spec, registry.drivers) if isinstance(spec, dict) else None
+    if kind is None:
+        return None               # an unknown device or driver, reported with the device
+    inputs = ["x", "v", *kind.axes(spec)]
+    if port not in inputs:
+        shown = ", ".join(inputs[:30]) + (", …" if len(inputs) > 30 else "")
+        problems.add(at, f"{where}: {key} {text!r}: device {device!r} has no input {port!r} (its inputs: {shown})")
+        return None
+    return block, port, device
 
 
 def _add(blocks, name, values, entry, line):
