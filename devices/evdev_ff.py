@@ -26,7 +26,8 @@ Stopping, whatever ends the run
     it starts again), then hands the signal on to the handler that was there before (the
     command line's stops the run, which erases the effect); with none, it erases every effect
     and ends the process as the signal would. atexit does the same for a process that ends
-    without stopping its devices. SIGKILL runs nothing: what erases the effect then is the
+    without stopping its devices. A device that is lost (a read or a write fails: unplugged)
+    zeroes every other open evdev device at once, before the engine stops the run. SIGKILL runs nothing: what erases the effect then is the
     kernel — effects belong to the file descriptor they were uploaded through and are erased
     when it is closed (drivers/input/ff-core.c, input_ff_flush, called when an evdev client's
     fd is flushed), which the kernel does for every fd of a process that dies.
@@ -75,7 +76,8 @@ def slew(current, target, step):
 # -- every device with an effect on it, zeroed whatever ends the process ------------------------
 
 _live = set()
-_previous = {}
+_previous = {}                  # signal number -> the handler there before ours
+_exit_hook = []                 # [True] once _at_exit is registered
 _lock = threading.Lock()
 
 
@@ -100,18 +102,24 @@ def _at_exit():
         driver.release()
 
 
-def _watch(driver):
-    """Keep `driver` zeroed by the atexit and signal path while it has an effect."""
+def _guard():
+    """atexit, once; the SIGTERM and SIGINT handlers, once, from the main thread (a driver is
+    opened there; it may start on the audio thread, where no handler can be set)."""
     with _lock:
-        if not _previous:
+        if not _exit_hook:
             atexit.register(_at_exit)
-            if threading.current_thread() is threading.main_thread():
-                for signum in (signal.SIGTERM, signal.SIGINT):
-                    _previous[signum] = signal.getsignal(signum)
-                    signal.signal(signum, _on_signal)
-            else:
-                _previous[None] = None        # atexit only: a signal handler needs the main thread
-        _live.add(driver)
+            _exit_hook.append(True)
+        if signal.SIGTERM not in _previous and threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGTERM, signal.SIGINT):
+                _previous[signum] = signal.getsignal(signum)
+                signal.signal(signum, _on_signal)
+
+
+def _lost(driver):
+    """A device is gone: every other device's force is zeroed at once, before the run stops."""
+    for other in list(_live):
+        if other is not driver:
+            other.halt()
 
 
 class EvdevDriver(Driver):
@@ -156,6 +164,7 @@ class EvdevDriver(Driver):
         self.lost = None
         self.rate = 44100.0
         self.is_open = True
+        _guard()
 
     # -- starting and stopping
     def start(self, rate):
@@ -175,7 +184,8 @@ class EvdevDriver(Driver):
                 self.effect = ff.Effect(codes.FF_CONSTANT, -1, self.directions[0], ff.Trigger(0, 0),
                                         ff.Replay(0, 0), ff.EffectType(ff_constant_effect=constant))
                 self.effect_id = self.device.upload_effect(self.effect)
-                _watch(self)
+                _guard()
+                _live.add(self)
                 self.device.write(codes.EV_FF, self.effect_id, 1)
         self.running = True
         self.reader = threading.Thread(target=self._read_loop, name=f"evdev-{self.name}-reader", daemon=True)
@@ -191,6 +201,7 @@ class EvdevDriver(Driver):
             self.device.upload_effect(e)
         except OSError as exc:
             self.lost = f"force write failed ({exc or 'device gone'})"
+            _lost(self)
             return False
         self.level = level
         return True
@@ -253,6 +264,7 @@ class EvdevDriver(Driver):
                         row[k] = axis.value(event.value) if axis is not None else float(event.value != 0)
         except (OSError, ValueError) as exc:
             self.lost = f"read failed ({exc or 'device gone'})"
+            _lost(self)
 
     # -- the block exchange
     def fill(self, t0, ext):
