@@ -1,8 +1,8 @@
 """`hapticgraph export PATCH --to c|lv2|wasm --out DIR [--name NAME] [--set B.P=V] [--install]`:
-the patch lowered to C99 (NAME.h, NAME.c), or built into an LV2 bundle DIR/NAME.lv2/
-(docs/export.md). A block that cannot be lowered is refused at its FILE:LINE (exit 2, from
-main's PatchError); a target not built yet or a wrong name is a usage error (exit 2); a failed
-build one line on stderr (exit 1)."""
+the patch lowered to C99 (NAME.h, NAME.c), built into an LV2 bundle DIR/NAME.lv2/, or into
+DIR/NAME.wasm with its AudioWorklet NAME.js and a page index.html (docs/export.md). A block that
+cannot be lowered is refused at its FILE:LINE (exit 2, from main's PatchError); a wrong name is a
+usage error (exit 2); a failed build one line on stderr (exit 1)."""
 import re
 import sys
 
@@ -15,9 +15,6 @@ def cmd_export(args):
         raise UsageError(f"--name {args.name!r}: a C identifier is expected (letters, digits, _)")
     if args.install and args.to != "lv2":
         raise UsageError("--install copies an LV2 bundle: use it with --to lv2")
-    if args.to == "wasm":
-        raise UsageError("--to wasm is not built yet: export C (--to c) and compile NAME.c with a "
-                         "WebAssembly toolchain (docs/export.md)")
     try:
         written = export(args.patch, args.to, args.out, name=args.name, overrides=args.overrides,
                          install=args.install)

@@ -6,6 +6,7 @@ from ..graph.c import export_c
 from ..graph.patch import load
 from .compiler import ExportError
 from .lv2 import write_bundle
+from .wasm import write_wasm
 
 TARGETS = ("c", "lv2", "wasm")
 
@@ -30,19 +31,18 @@ def write_c(lowered, out):
 
 
 def export(patch, to, out, name=None, overrides=(), install=False):
-    """Export `patch` (a Patch, or a path loaded with `overrides`) `to` "c" or "lv2" into the
+    """Export `patch` (a Patch, or a path loaded with `overrides`) `to` "c", "lv2" or "wasm" into the
     folder `out`; the paths written. PatchError for a patch that cannot be lowered, ExportError
     for a build that fails, ValueError for a target not offered."""
     if to not in TARGETS:
         raise ValueError(f"unknown target {to!r}; one of {', '.join(TARGETS)}")
-    if to == "wasm":
-        raise ExportError("--to wasm is not built yet: export C (--to c) and compile it with a WebAssembly "
-                          "toolchain (docs/export.md)")
     if isinstance(patch, (str, os.PathLike)):
         patch = load(patch, overrides=overrides)
     lowered = export_c(patch, name or export_name(patch.file))
     if to == "c":
         return write_c(lowered, out)
+    if to == "wasm":
+        return write_wasm(lowered, out)
     return write_bundle(lowered, out, install=install)
 
 

@@ -1,14 +1,18 @@
 """The C export's tests: a patch exported, a small C driver (written here, as a host would) built
-with it by the system's compiler, run for N samples, its outputs read back as raw doubles."""
+with it by the system's compiler, run for N samples, its outputs read back as raw doubles; and the
+same patch built to WebAssembly (hapticgraph.export.wasm) and run in wasmtime through the module's
+buffer interface, as the AudioWorklet runs it."""
 import os
 import subprocess
 
 import numpy as np
 import pytest
+import wasmtime
 
 from hapticgraph import load
 from hapticgraph.export.bundle import export_name, write_c
 from hapticgraph.export.compiler import build
+from hapticgraph.export.wasm import write_wasm
 from hapticgraph.graph.c import export_c
 
 DRIVER = r"""
@@ -88,6 +92,62 @@ def c_export(tmp_path):
         exe = folder / "driver"
         build([driver, folder / f"{name}.c"], exe, extra=["-I", str(folder)])
         return Built(exe, lowered)
+    return make
+
+
+class WasmBuilt:
+    """An exported patch's NAME.wasm in wasmtime: `run(rate, total, block, inputs, sets)` as Built's."""
+
+    def __init__(self, path, lowered):
+        self.path, self.lowered = path, lowered
+        engine = wasmtime.Engine()
+        self.module = wasmtime.Module.from_file(engine, str(path))
+        self.engine = engine
+
+    def imports(self):
+        return [(i.module, i.name) for i in self.module.imports]
+
+    def run(self, rate, total, block=1000, inputs=None, sets=(), expect=0):
+        store = wasmtime.Store(self.engine)
+        x = wasmtime.Instance(store, self.module, []).exports(store)
+        name = self.lowered.name
+        nin, nout = len(self.lowered.inputs), len(self.lowered.outputs)
+        h = x[f"{name}_host_new"](store, float(rate), block)
+        if h == 0:
+            assert expect == 3, f"{name}_host_new refused {rate}"
+            return None
+        s = x[f"{name}_host_instance"](store, h)
+        at_in = [x[f"{name}_host_input"](store, h, k) for k in range(nin)]
+        at_out = [x[f"{name}_host_output"](store, h, k) for k in range(nout)]
+        memory = x["memory"]
+        rows = []
+        for done in range(0, total, block):
+            for at, index, value in sets:
+                if at == done and x[f"{name}_set"](store, s, index, float(value)) != 0:
+                    assert expect == 4
+                    return None
+            n = min(block, total - done)
+            for k in range(nin):
+                memory.write(store, np.ascontiguousarray(inputs[done:done + n, k], dtype="<f8").tobytes(), at_in[k])
+            x[f"{name}_host_process"](store, h, n)
+            cols = [np.frombuffer(memory.read(store, at_out[k], at_out[k] + 8 * n), dtype="<f8") for k in range(nout)]
+            rows.append(np.stack(cols, axis=1) if cols else np.zeros((n, 0)))
+        x[f"{name}_host_free"](store, h)
+        assert expect == 0
+        return np.concatenate(rows)
+
+
+@pytest.fixture
+def wasm_export(tmp_path):
+    """wasm_export(patch or path, name=None, overrides=()) -> WasmBuilt."""
+    def make(patch, name=None, overrides=()):
+        if isinstance(patch, (str, os.PathLike)):
+            patch = load(patch, overrides=overrides)
+        name = name or export_name(patch.file)
+        lowered = export_c(patch, name)
+        folder = tmp_path / f"{name}_wasm"
+        write_wasm(lowered, folder)
+        return WasmBuilt(folder / f"{name}.wasm", lowered)
     return make
 
 

@@ -103,6 +103,9 @@ def test_a_derive_driven_every_sample_is_refused_at_the_patch_line(tmp_path, cap
                            "its derive reads every sample (not lowered yet)")
 
 
-def test_wasm_is_not_built_yet(tmp_path, capsys):
-    assert main(["export", str(PATCHES[0]), "--to", "wasm", "--out", str(tmp_path)]) == 2
-    assert "--to wasm is not built yet" in capsys.readouterr().err
+def test_wasm_without_its_toolchain_is_one_line_and_exit_1(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("WASM_CC", "no-such-clang-hg")
+    assert main(["export", str(PATCHES[0]), "--to", "wasm", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("hapticgraph: error: no WebAssembly toolchain: no-such-clang-hg not on PATH"), err
+    assert not list(tmp_path.glob("*.wasm"))
