@@ -162,6 +162,46 @@ def _event_number(path):
     return (0, int(tail), str(path)) if tail.isdigit() else (1, 0, str(path))
 
 
+def connected(module=None):
+    """Every input device this user can open (`hapticgraph devices`): path, name, vendor,
+    product, serial, `inputs` (port names, x first), `force_feedback` (its FF codes) and
+    `constant_force`. Empty without python-evdev (not Linux)."""
+    try:
+        evdev = module if module is not None else evdev_module()
+    except DeviceError:
+        return []
+    out = []
+    for path in sorted(evdev.list_devices(), key=_event_number):
+        try:
+            dev = evdev.InputDevice(path)
+        except OSError:
+            continue
+        try:
+            d = _info(dev)
+            layout = EvdevLayout(dev.capabilities(absinfo=True), evdev.ecodes.ABS)
+        finally:
+            dev.close()
+        inputs = (["x"] if layout.position is not None else []) + list(layout.ports)
+        out.append({**d, "inputs": inputs, "force_feedback": layout.force_feedback,
+                    "constant_force": layout.constant_force})
+    return out
+
+
+def device_lines(devices):
+    """`hapticgraph devices`' lines for the input devices `connected()` gives (those with axes)."""
+    lines = []
+    for d in devices:
+        if not d["inputs"]:
+            continue
+        ff = "constant force (driver: evdev)" if d["constant_force"] else "yes, no constant force" \
+            if d["force_feedback"] else "no"
+        shown = ", ".join(d["inputs"][:24]) + (f", … ({len(d['inputs'])} in all)" if len(d["inputs"]) > 24 else "")
+        lines.append(f"  {d['vendor']:04x}:{d['product']:04x}  {d['name']}  {d['path']}"
+                     f"{'  serial ' + d['serial'] if d['serial'] else ''}")
+        lines.append(f"      inputs: {shown}; force feedback: {ff}")
+    return lines
+
+
 def no_kernel_driver(hid_devices, input_devices):
     """One line for each HID PID force-feedback device (`hid_devices`: hid_match.connected()'s
     entries) the kernel gives no force feedback through evdev (`input_devices`: dicts with
@@ -177,5 +217,5 @@ def no_kernel_driver(hid_devices, input_devices):
     return lines
 
 
-__all__ = ["Axis", "EvdevLayout", "EvdevMatchError", "MATCH_KEYS", "abs_name", "describe_match", "evdev_module",
-           "find", "no_kernel_driver"]
+__all__ = ["Axis", "EvdevLayout", "EvdevMatchError", "MATCH_KEYS", "abs_name", "connected", "describe_match",
+           "device_lines", "evdev_module", "find", "no_kernel_driver"]

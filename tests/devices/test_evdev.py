@@ -24,7 +24,7 @@ from hapticgraph.devices import evdev_layout
 from hapticgraph.devices.errors import DeviceError
 from hapticgraph.devices.evdev_ff import FULL, MAX_RATE, SLEW, EvdevDriver, slew
 from hapticgraph.devices.evdev_kind import EvdevKind
-from hapticgraph.devices.evdev_layout import EvdevLayout, find, no_kernel_driver
+from hapticgraph.devices.evdev_layout import EvdevLayout, connected, device_lines, find, no_kernel_driver
 from hapticgraph.devices.table import driver_kinds
 from hapticgraph.graph.engine import SafetyStop
 from hapticgraph.graph.errors import PatchError
@@ -206,6 +206,21 @@ def test_match_errors_are_patch_errors_at_the_line_and_index_picks_the_second(mo
         hapticgraph.load(str(path), drivers=kinds())
 
 
+def test_connected_devices_for_hapticgraph_devices():
+    fake = FakeEvdev([FakeDevice.wheel(uniq="W1"), FakeDevice.stick(effects=[])])
+    found = connected(fake)
+    assert [(d["path"], d["constant_force"]) for d in found] == [("/dev/input/event3", True), ("/dev/input/event5", False)]
+    assert found[1]["inputs"][:6] == ["x", "y", "rz", "throttle", "hat_x", "hat_y"]
+    lines = device_lines(found)
+    assert lines[0] == "  046d:c24f  Logitech G29 Driving Force Racing Wheel  /dev/input/event3  serial W1"
+    assert lines[1].endswith("force feedback: constant force (driver: evdev)") and lines[3].endswith("feedback: no")
+    assert all(c == ("close",) for d in fake.devices.values() for c in d.calls)       # opened, read, closed
+    # the SideWinder's HID PID reports with no evdev force feedback: one line naming it
+    hid = [{"vendor_id": 0x045E, "product_id": 0x001B, "product_string": "SideWinder Force Feedback 2 Joystick",
+            "force_feedback": True}]
+    assert len(no_kernel_driver(hid, found)) == 1 and no_kernel_driver(hid, found)[0].startswith("SideWinder Force")
+
+
 def test_a_hid_pid_device_the_kernel_does_not_drive_is_said_in_one_line():
     hid = [{"vendor_id": 0x045E, "product_id": 0x001B, "manufacturer_string": "Microsoft",
             "product_string": "SideWinder Force Feedback 2 Joystick", "force_feedback": True},
@@ -282,3 +297,10 @@ def test_sigkill_closes_the_fd_the_effect_was_uploaded_through(tmp_path):
     assert mine.recv(1) == b""                        # EOF: the kernel would now erase its effects
     calls = [json.loads(line) for line in log.read_text().splitlines()]
     assert not any(c[0] == "erase" for c in calls)    # nothing ran in the child: the fd did it
+
+
+def test_the_real_python_evdev_is_what_the_driver_asks_for():
+    module = evdev_layout.evdev_module()
+    assert module.__name__ == "evdev" and module.ecodes.FF_CONSTANT == evdev_layout.FF_CONSTANT
+    with pytest.raises(DeviceError, match=r"no input device matches \{name: 'no such device, surely'\}"):
+        find({"name": "no such device, surely"}, module)
