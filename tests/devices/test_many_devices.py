@@ -2,7 +2,9 @@
 reader thread, told apart by `index` (their order in /dev/input) or `serial`; one unplugged
 mid-play stops the run naming it, with every other device's force zeroed first and its effect
 erased; `hapticgraph run` then writes the WAV whole and exits 1 with one line naming the device.
-Against the python-evdev stand-in (tests/devices/evdev_standin.py)."""
+Against the python-evdev stand-in (tests/devices/evdev_standin.py); two HID pads of one model
+through the hidapi stand-in."""
+import pathlib
 import textwrap
 import threading
 import time
@@ -13,11 +15,12 @@ import soundfile
 
 import hapticgraph
 from hapticgraph.cli import main
-from hapticgraph.devices import evdev_layout, table
+from hapticgraph.devices import evdev_layout, hid_transports, table
 from hapticgraph.devices.evdev_ff import FULL
 from hapticgraph.devices.evdev_kind import EvdevKind
 from hapticgraph.graph.engine import SafetyStop
 
+import hidapi_standin
 from evdev_standin import FakeDevice, FakeEvdev
 
 COUNT = 16
@@ -102,3 +105,32 @@ def test_run_writes_the_wav_whole_and_names_the_lost_device(wheels, tmp_path, ca
         levels = dev.levels()
         assert levels[-1] == 0 and max(levels) > 0
         assert ("erase", 0) in dev.ff_calls()[-2:]
+
+
+def test_two_hid_pads_of_one_model_told_apart_by_serial_and_index(monkeypatch, tmp_path):
+    ps3 = pathlib.Path(__file__).resolve().parent.parent / "data" / "hid" / "sony_ps3_controller_054c_0268.hid"
+    fake = hidapi_standin.FakeHidapi([hidapi_standin.FakeDevice.from_recording(ps3, b"/dev/hidraw4", serial="PAD-B"),
+                                      hidapi_standin.FakeDevice.from_recording(ps3, b"/dev/hidraw5", serial="PAD-A")])
+    monkeypatch.setattr(hid_transports, "hid_module", lambda: fake)
+    path = tmp_path / "pads.yaml"
+    path.write_text(textwrap.dedent("""\
+        hapticgraph: 1
+        rate: 1000
+        devices:
+          left: {driver: hid, match: {vendor: 0x054c, product: 0x0268, serial: PAD-A}}
+          right: {driver: hid, match: {vendor: 0x054c, index: 0}}
+        blocks:
+          l: {type: haptic, device: left}
+          r: {type: haptic, device: right}
+          out: {type: audio_out, channels: 2}
+        connect:
+          - l.x -> out.left
+          - r.x -> out.right
+        """))
+    patch = hapticgraph.load(path)
+    with hapticgraph.Session.open(patch, blocksize=64) as s:
+        s.process(64)
+        readers = {t.name for t in threading.enumerate() if t.name.startswith("hid-")}
+        paths = {name: d.transport.path for name, d in s.drivers.items()}
+    assert paths == {"left": "/dev/hidraw5", "right": "/dev/hidraw4"}
+    assert readers >= {"hid-left-reader", "hid-right-reader"}
