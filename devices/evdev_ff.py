@@ -17,6 +17,11 @@ How force reaches the device
     directions). Levels are written at the block rate, at most MAX_RATE (1 kHz): a block that
     comes sooner is skipped unless its level is zero (a zero is never held back).
 
+    The effect lasts `watchdog` seconds (default 0.25; its replay length) and is played again
+    every quarter of that while the patch runs, so a process that stalls — hung, stopped, its
+    audio thread dead — leaves no force on the hand for longer: the kernel ends the effect
+    (`watchdog: 0`: an effect that lasts until stopped).
+
 Stopping, whatever ends the run
     `stop` sets the level to zero before anything else, then stops and erases the effect, puts
     autocentring back (`autocenter`, 0 … 1 of full, default 1.0: the kernel drivers' own
@@ -58,6 +63,7 @@ GAIN_FULL = 0xFFFF
 MAX_RATE = 1000.0               # Hz: levels written at most this often
 SLEW = 20.0                     # full scale per second: a level may rise from 0 to full in 50 ms
 DEFAULT_MAX_FORCE = 0.5         # of full scale
+WATCHDOG = 0.25                 # s: the effect's length; played again every quarter of it
 READ_SECONDS = 0.02
 VELOCITY_CUTOFF = 20.0          # Hz
 DIRECTIONS = {"x": (0xC000, 0x4000), "y": (0x0000, 0x8000)}   # (positive, negative) force along the axis
@@ -134,6 +140,7 @@ class EvdevDriver(Driver):
         self.max_force = force_limit(name, "evdev", spec.get("max_force", DEFAULT_MAX_FORCE), 1.0,
                                      "the device's full scale")
         self.slew_rate = float(spec.get("slew", SLEW))
+        self.watchdog_ms = int(round(1000 * float(spec.get("watchdog", WATCHDOG))))
         self.autocenter = float(spec.get("autocenter", 1.0))
         axis = spec.get("axis", "x")
         if axis not in DIRECTIONS:
@@ -170,26 +177,38 @@ class EvdevDriver(Driver):
     def start(self, rate):
         if self.running:
             self.stop()
-        if not self.is_open:
-            raise DeviceError(f"device {self.name!r} (evdev): closed; open the patch again")
+        if not self.is_open:                 # started again after a stop: the node opened again
+            try:
+                self.device = self.module.InputDevice(self.layout.path)
+            except OSError as exc:
+                raise DeviceError(f"device {self.name!r} (evdev): cannot open {self.layout.path}: {exc}") from None
+            self.is_open = True
         self.rate = float(rate)
-        self.lost, self.halted, self.level, self.written_at = None, False, 0.0, None
+        self.lost, self.halted, self.level, self.written_at, self.played_at = None, False, 0.0, None, 0
         self.x_prev, self.v = None, 0.0
         if self.forces:
-            ff, codes = self.module.ff, self.module.ecodes
-            with self.lock:
-                self.device.write(codes.EV_FF, codes.FF_GAIN, GAIN_FULL)
-                self.device.write(codes.EV_FF, codes.FF_AUTOCENTER, 0)
-                constant = ff.Constant(0, ff.Envelope(0, 0, 0, 0))
-                self.effect = ff.Effect(codes.FF_CONSTANT, -1, self.directions[0], ff.Trigger(0, 0),
-                                        ff.Replay(0, 0), ff.EffectType(ff_constant_effect=constant))
-                self.effect_id = self.device.upload_effect(self.effect)
-                _guard()
-                _live.add(self)
-                self.device.write(codes.EV_FF, self.effect_id, 1)
+            try:
+                self._start_effect()
+            except OSError as exc:
+                self.stop()
+                raise DeviceError(f"device {self.name!r} (evdev): {self.layout.name!r} at {self.layout.path}: "
+                                  f"cannot start its force feedback: {exc}") from None
         self.running = True
         self.reader = threading.Thread(target=self._read_loop, name=f"evdev-{self.name}-reader", daemon=True)
         self.reader.start()
+
+    def _start_effect(self):
+        ff, codes = self.module.ff, self.module.ecodes
+        with self.lock:
+            self.device.write(codes.EV_FF, codes.FF_GAIN, GAIN_FULL)
+            self.device.write(codes.EV_FF, codes.FF_AUTOCENTER, 0)
+            constant = ff.Constant(0, ff.Envelope(0, 0, 0, 0))
+            self.effect = ff.Effect(codes.FF_CONSTANT, -1, self.directions[0], ff.Trigger(0, 0),
+                                    ff.Replay(self.watchdog_ms, 0), ff.EffectType(ff_constant_effect=constant))
+            self.effect_id = self.device.upload_effect(self.effect)
+            _guard()
+            _live.add(self)
+            self.device.write(codes.EV_FF, self.effect_id, 1)
 
     def _write_level(self, level):
         """Upload the effect with `level` (of full scale, signed). False if the device failed."""
@@ -200,11 +219,16 @@ class EvdevDriver(Driver):
         try:
             self.device.upload_effect(e)
         except OSError as exc:
-            self.lost = f"force write failed ({exc or 'device gone'})"
-            _lost(self)
+            self._lose(f"force write failed ({exc or 'device gone'})")
             return False
         self.level = level
         return True
+
+    def _lose(self, why):
+        first = self.lost is None
+        self.lost = why
+        if first:                         # once: two lost devices must not halt each other for ever
+            _lost(self)
 
     def halt(self):
         """Zero the force now and write none until the device starts again (the signal and
@@ -263,8 +287,7 @@ class EvdevDriver(Driver):
                         k, axis = slot
                         row[k] = axis.value(event.value) if axis is not None else float(event.value != 0)
         except (OSError, ValueError) as exc:
-            self.lost = f"read failed ({exc or 'device gone'})"
-            _lost(self)
+            self._lose(f"read failed ({exc or 'device gone'})")
 
     # -- the block exchange
     def fill(self, t0, ext):
@@ -292,10 +315,15 @@ class EvdevDriver(Driver):
                 return
             level = slew(self.level, f, self.slew_rate * max(n, 1) / self.rate)
             due = self.written_at is None or t0 + n - self.written_at >= self.rate / MAX_RATE - 1e-9
-            if level == self.level or not (due or level == 0.0):
-                return
-            if self._write_level(level):
-                self.written_at = t0 + n
+            if level != self.level and (due or level == 0.0):
+                if self._write_level(level):
+                    self.written_at = t0 + n
+            if self.watchdog_ms and t0 + n - self.played_at >= self.rate * self.watchdog_ms / 4000.0:
+                self.played_at = t0 + n           # played again: the kernel's stop time moves on
+                try:
+                    self.device.write(self.module.ecodes.EV_FF, self.effect_id, 1)
+                except OSError as exc:
+                    self._lose(f"force write failed ({exc or 'device gone'})")
 
 
-__all__ = ["DEFAULT_MAX_FORCE", "EvdevDriver", "FULL", "MAX_RATE", "SLEW", "slew"]
+__all__ = ["DEFAULT_MAX_FORCE", "EvdevDriver", "FULL", "MAX_RATE", "SLEW", "WATCHDOG", "slew"]

@@ -45,6 +45,9 @@ class EvdevKind(DriverKind):
                          "description": "the axis the force pushes along (a wheel's is x)"},
                 "slew": {**NUMBER, "exclusiveMinimum": 0, "maximum": 1000, "default": 20.0,
                          "description": "how fast the force may rise, in full scales per second"},
+                "watchdog": {**NUMBER, "minimum": 0, "maximum": 10, "default": 0.25,
+                             "description": "the force ends this long [s] after the patch stops sending it "
+                                            "(a stalled process); 0: never"},
                 "autocenter": {**NUMBER, "minimum": 0, "maximum": 1, "default": 1.0,
                                "description": "the autocentring left when playing ends (0 … 1 of full; off "
                                               "while playing)"}}

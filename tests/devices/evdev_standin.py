@@ -144,6 +144,7 @@ class InputDevice:
         elif eid not in dev.uploaded:
             raise OSError(errno.EINVAL, "Invalid argument")
         dev.uploaded[eid] = effect.u.ff_constant_effect.level
+        dev.replay_length = effect.ff_replay.length
         dev.record("upload", eid, effect.direction, effect.u.ff_constant_effect.level)
         if writeback_id:
             effect.id = eid

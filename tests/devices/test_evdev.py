@@ -146,6 +146,19 @@ def test_levels_are_written_at_most_at_max_rate():
     d.stop()
 
 
+# blocks of 10 ms: a quarter of 250 ms is played again every 7th block (70 ms), of 100 ms every 3rd
+@pytest.mark.parametrize("watchdog, plays", [(None, 1 + 100 // 7), (0.1, 1 + 100 // 3), (0, 1)])
+def test_the_effect_ends_by_itself_unless_played_again(watchdog, plays):
+    dev = FakeDevice.wheel()
+    d = opened_driver(dev, {"max_force": 0.5} if watchdog is None else {"max_force": 0.5, "watchdog": watchdog})
+    n = 441
+    for k in range(100):                                # one second of a steady force
+        d.send(k * n, np.full(n, 0.3))
+    assert dev.replay_length == round(1000 * (0.25 if watchdog is None else watchdog))
+    assert dev.calls.count((WRITE, ecodes.EV_FF, 0, 1)) == plays       # played again every quarter of it
+    d.stop()
+
+
 def test_inputs_are_named_as_hid_and_normalised_by_absinfo(wheel, tmp_path):
     patch = hapticgraph.load(str(patch_file(tmp_path, 0.0)), drivers=kinds())
     assert patch.blocks["w"].values["axes"] == ["y", "z", "rz", "hat_x", "hat_y"] + [f"button{k}" for k in range(1, 26)]
@@ -304,3 +317,18 @@ def test_the_real_python_evdev_is_what_the_driver_asks_for():
     assert module.__name__ == "evdev" and module.ecodes.FF_CONSTANT == evdev_layout.FF_CONSTANT
     with pytest.raises(DeviceError, match=r"no input device matches \{name: 'no such device, surely'\}"):
         find({"name": "no such device, surely"}, module)
+
+
+def test_started_again_after_a_stop_the_node_is_opened_again_and_a_failed_start_is_a_device_error():
+    dev = FakeDevice.wheel()
+    d = opened_driver(dev)
+    d.send(0, np.full(441, 0.2))
+    d.stop()
+    d.start(RATE)
+    d.send(0, np.full(441, 0.2))
+    d.stop()
+    assert dev.calls.count(("erase", 0)) == 1 and dev.calls.count(("erase", 1)) == 1 and dev.calls[-1] == ("close",)
+    assert not dev.handles                               # every handle closed
+    dev.fail_after = dev.uploads + 1
+    with pytest.raises(DeviceError, match="cannot start its force feedback"):
+        d.start(RATE)
