@@ -245,9 +245,10 @@ def _expand_one(entry, line, doc, registry, blocks, connect, problems):
 
 
 def _expand_axis(entry, line, where, doc, registry, blocks, connect, problems):
-    if "smooth" in entry or "channel" in entry:
-        key = "smooth" if "smooth" in entry else "channel"
-        problems.add(entry.lines.get(key, line), f"{where}: `{key}` applies to a cc mapping only")
+    for key in ("smooth", "channel", "device"):
+        if key in entry:
+            what = "a cc or osc mapping (an axis names its device)" if key == "device" else "a cc mapping"
+            problems.add(entry.lines.get(key, line), f"{where}: `{key}` applies to {what} only")
     target = _target(entry, line, doc, registry, problems)
     axis = _device_port(entry, "axis", line, where, doc, registry, problems)
     hold = _device_port(entry, "hold", line, where, doc, registry, problems) if "hold" in entry else None

@@ -86,6 +86,7 @@ def test_hold_suppresses_then_jumps(tmp_path):
     ("{param: amp.gain, axis: pad.q, min: 0, max: 1}", "axis 'pad.q': device 'pad' has no input 'q' (its inputs: x, v, "),
     ("{param: amp.gain, axis: pad.z, min: 0, max: 1, hold: pad.nope}", "hold 'pad.nope': device 'pad' has no input"),
     ("{param: amp.gain, axis: pad.z, min: 0, max: 1, smooth: 0.1}", "`smooth` applies to a cc mapping only"),
+    ("{param: amp.gain, axis: pad.z, min: 0, max: 1, device: pad}", "`device` applies to a cc or osc mapping"),
     ("{param: amp.gain, cc: 7, min: 0, max: 1, hold: pad.button1}", "`hold` applies to an axis mapping only"),
     ("{param: amp.gain, axis: pad.z, cc: 7, min: 0, max: 1}", "give either `cc: NUMBER`, `osc: /address` or `axis: "),
     ("{param: amp.gian, axis: pad.z}", "no live parameter 'gian'"),
