@@ -13,7 +13,7 @@ are its capabilities'), so a patch naming one loads only while it is connected.
 from .driver_kind import NUMBER, DriverKind, attach, attached
 from .errors import DeviceError
 from . import evdev_layout
-from .evdev_layout import MATCH_KEYS, find
+from .evdev_layout import MATCH_KEYS, EvdevMatchError, connected, find, no_kernel_driver
 
 USB_ID = {"type": "integer", "minimum": 0, "maximum": 0xFFFF}
 
@@ -57,8 +57,14 @@ class EvdevKind(DriverKind):
         if not isinstance(match, dict) or not match or any(k not in MATCH_KEYS for k in match):
             return                            # the schema says so
         try:
-            device, layout = find(match, evdev_layout.evdev_module())
-        except DeviceError as exc:            # no such device; python-evdev missing
+            module = evdev_layout.evdev_module()
+            device, layout = find(match, module)
+        except EvdevMatchError as exc:        # no such device: is it a HID PID device the kernel does not drive?
+            said = _undriven(match, module)
+            problems.add(spec.lines.get("match", spec.line), f"device {name!r}: {exc}"
+                         + "".join(f"; {line}" for line in said))
+            return
+        except DeviceError as exc:            # python-evdev missing
             problems.add(spec.lines.get("match", spec.line), f"device {name!r}: {exc}")
             return
         device.close()
@@ -85,6 +91,26 @@ class EvdevKind(DriverKind):
         except DeviceError:
             device.close()
             raise
+
+
+def _hid_devices():
+    """hidapi's devices with their descriptors read (hapticgraph.devices.hid_match.connected);
+    [] without hidapi. hid-tools (75 ms to import) is imported only when a device is not found."""
+    from . import hid_match
+    try:
+        return hid_match.connected()
+    except DeviceError:
+        return []
+
+
+def _undriven(match, module):
+    """One line for each HID PID device that `match` names and the kernel gives no force feedback."""
+    def named(d):
+        return (match.get("vendor", d.get("vendor_id")) == d.get("vendor_id")
+                and match.get("product", d.get("product_id")) == d.get("product_id")
+                and str(match.get("name", "")).lower() in
+                f"{d.get('manufacturer_string') or ''} {d.get('product_string') or ''}".lower())
+    return no_kernel_driver([d for d in _hid_devices() if named(d)], connected(module))
 
 
 __all__ = ["EvdevKind"]

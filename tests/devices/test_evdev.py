@@ -20,7 +20,7 @@ import pytest
 from evdev import ecodes
 
 import hapticgraph
-from hapticgraph.devices import evdev_layout
+from hapticgraph.devices import evdev_layout, hid_transports
 from hapticgraph.devices.errors import DeviceError
 from hapticgraph.devices.evdev_ff import FULL, MAX_RATE, SLEW, EvdevDriver, slew
 from hapticgraph.devices.evdev_kind import EvdevKind
@@ -29,6 +29,7 @@ from hapticgraph.devices.table import driver_kinds
 from hapticgraph.graph.engine import SafetyStop
 from hapticgraph.graph.errors import PatchError
 
+import hidapi_standin
 from evdev_standin import FakeDevice, FakeEvdev
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -234,6 +235,23 @@ def test_connected_devices_for_hapticgraph_devices():
     assert len(no_kernel_driver(hid, found)) == 1 and no_kernel_driver(hid, found)[0].startswith("SideWinder Force")
 
 
+def test_a_match_for_a_hid_pid_device_the_kernel_does_not_drive_says_so(monkeypatch, tmp_path):
+    rdesc = os.path.join(HERE, "..", "data", "hid", "saitek_joystick_pid_06a3_ff0d.rdesc")
+    with open(rdesc, encoding="utf-8") as f:
+        descriptor = bytes.fromhex(f.read())
+    hid = hidapi_standin.FakeHidapi([hidapi_standin.FakeDevice(b"/dev/hidraw1", 0x06A3, 0xFF0D, descriptor,
+                                                               product="Cyborg Force", manufacturer="Saitek")])
+    monkeypatch.setattr(hid_transports, "hid_module", lambda: hid)
+    monkeypatch.setattr(evdev_layout, "evdev_module", lambda: FakeEvdev([FakeDevice.wheel()]))
+    path = patch_file(tmp_path, 0.1, entry="{driver: evdev, match: {name: cyborg}}")
+    with pytest.raises(PatchError) as err:
+        hapticgraph.load(str(path), drivers=kinds())
+    assert str(err.value).count("\n") <= 1 and (
+        "no input device matches {name: 'cyborg'}; input devices: 046d:c24f 'Logitech G29 Driving Force Racing Wheel' "
+        "/dev/input/event3; Saitek Cyborg Force (06a3:ff0d) has HID PID force feedback but no kernel driver gives "
+        "it through evdev") in str(err.value)
+
+
 def test_a_hid_pid_device_the_kernel_does_not_drive_is_said_in_one_line():
     hid = [{"vendor_id": 0x045E, "product_id": 0x001B, "manufacturer_string": "Microsoft",
             "product_string": "SideWinder Force Feedback 2 Joystick", "force_feedback": True},
@@ -250,6 +268,7 @@ CHILD = """
 import socket, sys, time
 import numpy as np
 sys.path.insert(0, {here!r})
+import hidapi_standin
 from evdev_standin import FakeDevice, FakeEvdev
 from hapticgraph.devices.evdev_ff import EvdevDriver
 from hapticgraph.devices.evdev_layout import find
