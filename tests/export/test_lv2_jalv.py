@@ -6,10 +6,8 @@ reports the plugin's client late in a cycle the server itself started on time (a
 On a loaded machine the dummy driver's own timer may be late ("JackTimedDriver::Process XRun"): every
 client of that cycle is then reported late, and a period or two around it may be lost; the
 recording is allowed as many bad periods as twice such xruns, and no more."""
-import os
 import re
 import subprocess
-import time
 import uuid
 
 import numpy as np
@@ -19,6 +17,7 @@ import hapticgraph
 from hapticgraph.cli.main import main
 from hapticgraph.export.lv2 import URI
 from hapticgraph.graph.patch import load
+from jack_server import jack_server, stop, until, xruns
 from project_env import ROOT
 
 KS = ROOT / "patches" / "karplus_strong.yaml"
@@ -26,70 +25,25 @@ RATE = 48000
 PERIOD = 256
 
 
-def _xruns(log, client):
-    """(xruns the plugin's client caused, xruns of the server's own timer) in jackd's log: a run of
-    XRun lines is one cycle; the client is to blame where the cycle has no timer line."""
-    caused = late_timer = 0
-    cycle = []
-    for line in log.splitlines() + [""]:
-        if "XRun" in line:
-            cycle.append(line)
-            continue
-        if cycle:
-            timer = any("JackTimedDriver" in c for c in cycle)
-            late_timer += timer
-            caused += not timer and any(f"client = {client} " in c for c in cycle)
-        cycle = []
-    return caused, late_timer
-
-
-def _stop(proc, deadline=10):
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=deadline)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(timeout=deadline)
-
-
-def _until(check, deadline_s, what):
-    end = time.monotonic() + deadline_s
-    while time.monotonic() < end:
-        if check():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"{what} (waited {deadline_s} s)")
-
-
-def test_jalv_hosts_the_plugin_under_jack_without_an_xrun(tmp_path, monkeypatch):
+def test_jalv_hosts_the_plugin_under_jack_without_an_xrun(tmp_path):
     assert main(["export", str(KS), "--to", "lv2", "--out", str(tmp_path / "lv2")]) == 0
-    server, client = f"hgtest-{uuid.uuid4().hex[:8]}", f"hgks{uuid.uuid4().hex[:6]}"
-    env = dict(os.environ, JACK_DEFAULT_SERVER=server, JACK_NO_START_SERVER="1", LV2_PATH=str(tmp_path / "lv2"))
-    monkeypatch.setenv("JACK_DEFAULT_SERVER", server)
-    jackd_log, jalv_log = open(tmp_path / "jackd.log", "w"), open(tmp_path / "jalv.log", "w")
-    jackd = subprocess.Popen(["jackd", "-n", server, "-d", "dummy", "-r", str(RATE), "-p", str(PERIOD)],
-                             stdout=jackd_log, stderr=subprocess.STDOUT, env=env)
-    jalv = None
-    try:
-        subprocess.run(["jack_wait", "-w", "-t", "20"], env=env, check=True, capture_output=True, timeout=30)
+    client = f"hgks{uuid.uuid4().hex[:6]}"
+    with jack_server(tmp_path, RATE, PERIOD) as env, open(tmp_path / "jalv.log", "w") as jalv_log:
+        env = dict(env, LV2_PATH=str(tmp_path / "lv2"))
         jalv = subprocess.Popen(["jalv", "-x", "-n", client, URI.format(name="karplus_strong")], env=env,
                                 stdin=subprocess.PIPE, stdout=jalv_log, stderr=subprocess.STDOUT)
-        ports = lambda: subprocess.run(["jack_lsp"], env=env, capture_output=True, text=True, timeout=10).stdout
-        _until(lambda: f"{client}:out_left" in ports(), 30, "jalv's ports did not appear")
-        subprocess.run(["jack_rec", "-f", str(tmp_path / "rec.wav"), "-d", "2", "-b", "32", f"{client}:out_left"],
-                       env=env, check=True, capture_output=True, timeout=60)
-        assert jalv.poll() is None                 # still running after the recording's 2 s
-        jalv.stdin.close()                         # end of input: the console host exits
-        assert jalv.wait(timeout=20) == 0
-    finally:
-        if jalv is not None:
-            _stop(jalv)
-        _stop(jackd)
-        jackd_log.close()
-        jalv_log.close()
+        try:
+            ports = lambda: subprocess.run(["jack_lsp"], env=env, capture_output=True, text=True, timeout=10).stdout
+            until(lambda: f"{client}:out_left" in ports(), 30, "jalv's ports did not appear")
+            subprocess.run(["jack_rec", "-f", str(tmp_path / "rec.wav"), "-d", "2", "-b", "32", f"{client}:out_left"],
+                           env=env, check=True, capture_output=True, timeout=60)
+            assert jalv.poll() is None                 # still running after the recording's 2 s
+            jalv.stdin.close()                         # end of input: the console host exits
+            assert jalv.wait(timeout=20) == 0
+        finally:
+            stop(jalv)
     log = (tmp_path / "jackd.log").read_text(errors="replace")
-    caused, late_timer = _xruns(log, client)
+    caused, late_timer = xruns(log, client)
     assert caused == 0, log
     assert f"Sample rate:  {RATE} Hz" in (tmp_path / "jalv.log").read_text()
 
