@@ -109,15 +109,19 @@ def _at_exit():
 
 
 def _guard():
-    """atexit, once; the SIGTERM and SIGINT handlers, once, from the main thread (a driver is
-    opened there; it may start on the audio thread, where no handler can be set)."""
+    """atexit, once; the SIGTERM and SIGINT handlers, from the main thread (a driver is opened
+    there; it may start on the audio thread, where no handler can be set), set again if another
+    handler was put in their place since (the command line gives back the handlers it found)."""
     with _lock:
         if not _exit_hook:
             atexit.register(_at_exit)
             _exit_hook.append(True)
-        if signal.SIGTERM not in _previous and threading.current_thread() is threading.main_thread():
-            for signum in (signal.SIGTERM, signal.SIGINT):
-                _previous[signum] = signal.getsignal(signum)
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for signum in (signal.SIGTERM, signal.SIGINT):
+            current = signal.getsignal(signum)
+            if current is not _on_signal and current is not signal.SIG_IGN:   # ours again if put back since
+                _previous[signum] = current
                 signal.signal(signum, _on_signal)
 
 

@@ -351,3 +351,26 @@ def test_started_again_after_a_stop_the_node_is_opened_again_and_a_failed_start_
     dev.fail_after = dev.uploads + 1
     with pytest.raises(DeviceError, match="cannot start its force feedback"):
         d.start(RATE)
+
+
+def test_the_signal_handler_chains_to_the_one_it_found_and_is_set_again_when_replaced():
+    seen = []
+    before = signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
+    try:
+        dev = FakeDevice.wheel()
+        d = opened_driver(dev)
+        for k in range(10):
+            d.send(k * 441, np.full(441, 0.4))
+        handler = signal.getsignal(signal.SIGINT)
+        assert handler is not None and handler.__module__ == "hapticgraph.devices.evdev_ff"
+        handler(signal.SIGINT, None)
+        assert seen == [signal.SIGINT] and dev.levels()[-1] == 0       # zeroed, then handed on
+        d.send(10 * 441, np.full(441, 0.4))
+        assert dev.levels()[-1] == 0                                    # latched until it starts again
+        d.stop()
+        signal.signal(signal.SIGINT, lambda signum, frame: seen.append(-signum))
+        opened_driver(FakeDevice.wheel()).stop()
+        signal.getsignal(signal.SIGINT)(signal.SIGINT, None)
+        assert seen == [signal.SIGINT, -signal.SIGINT]
+    finally:
+        signal.signal(signal.SIGINT, before)
