@@ -184,13 +184,15 @@ class Runner:
             driver.fill(t0, columns)
         code = self.engine.run(t0, rec, ext)
         self.t = t0 + n
+        # one device lost: every device gets zero force in this block (its inputs, and so the
+        # forces computed from them, are stale), before the run stops
+        lost = next((d for d in self.drivers if getattr(d, "lost", None)), None)
         for driver, force, zeros in sends:
-            driver.send(t0, zeros if getattr(driver, "lost", None) else force)
+            driver.send(t0, zeros if lost is not None else force)
         if code:
             raise SafetyStop(*self.prog.guard.describe(code, t0, n))
-        for driver in self.drivers:
-            if getattr(driver, "lost", None):
-                raise SafetyStop(f"device {getattr(driver, 'name', '?')!r} stopped answering: {driver.lost}", 0)
+        if lost is not None:
+            raise SafetyStop(f"device {getattr(lost, 'name', '?')!r} stopped answering: {lost.lost}", 0)
         return rec
 
 

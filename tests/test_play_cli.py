@@ -57,8 +57,8 @@ def test_devices_lists_sound_cards(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "Sound cards (PortAudio):" in p.stdout and "HID devices" in p.stdout
     drivers = p.stdout.split("Drivers (entry points hapticgraph.drivers):\n")[1].split("Sound cards")[0]
-    assert [line.split()[0] for line in drivers.splitlines()] == ["hid", "midi", "osc", "replay", "serial",
-                                                                  "simulated"]
+    assert [line.split()[0] for line in drivers.splitlines()] == ["evdev", "hid", "midi", "osc", "replay",
+                                                                  "serial", "simulated"]
     assert "hapticgraph (hapticgraph.devices.simulated_kind:SimulatedKind)" in drivers
     assert "default  [ALSA]" in p.stdout and "(default output" in p.stdout
 

@@ -239,4 +239,9 @@ def cmd_devices(args):
         return 0
     for line in device_lines(hids) or ["  none found"]:
         print(line)
+    print("Input devices (driver: evdev; the kernel's force feedback):")
+    from ..devices import evdev_layout
+    found = evdev_layout.connected()
+    for line in (evdev_layout.device_lines(found) + evdev_layout.no_kernel_driver(hids, found)) or ["  none found"]:
+        print(line)
     return 0

@@ -8,7 +8,7 @@ from hapticgraph.devices import table
 from hapticgraph.devices.driver_kind import DriverKind
 from hapticgraph.devices.simulated_kind import SimulatedKind
 
-BUILT_IN = ["hid", "midi", "osc", "replay", "serial", "simulated"]
+BUILT_IN = ["evdev", "hid", "midi", "osc", "replay", "serial", "simulated"]
 
 
 @pytest.fixture

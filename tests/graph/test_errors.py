@@ -157,7 +157,7 @@ def test_an_unknown_driver_is_reported_once_with_a_suggestion(tmp_path, capsys):
     assert main(["check", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"{path}:4: device 'finger': unknown driver 'simulatd' (did you mean 'simulated'?); "
-                   "the drivers are: hid, midi, osc, replay, serial, simulated"]
+                   "the drivers are: evdev, hid, midi, osc, replay, serial, simulated"]
 
 
 def test_graph_imports_nothing_from_devices():

@@ -65,3 +65,40 @@ def test_offline_render_without_safety_keeps_going(write_patch):
     patch = load(write_patch(BLOWUP))
     r = render(patch, 2.0, chunk=256)
     assert r.audio.shape[0] == 16000 and not np.all(np.isfinite(r.audio))
+
+
+TWO_HANDS = """\
+hapticgraph: 1
+devices:
+  a: {driver: simulated, max_force: 4.0, script: [{t: 0.0, x: 0.001}]}
+  b: {driver: simulated, max_force: 4.0, script: [{t: 0.0, x: 0.001}]}
+blocks:
+  ha: {type: haptic, device: a}
+  hb: {type: haptic, device: b}
+  ka: {type: spring_damper, k: 1000.0, R: 0.0}
+  kb: {type: spring_damper, k: 1000.0, R: 0.0}
+connect:
+  - ha.x -> ka.x1
+  - ka.reaction -> ha.force
+  - hb.x -> kb.x1
+  - kb.reaction -> hb.force
+"""
+
+
+def test_a_lost_device_zeroes_the_force_of_every_device_in_its_block(write_patch):
+    """One device stops answering: in that block every device is sent zero force (the forces
+    were computed from stale inputs), then the run stops naming the lost one."""
+    from hapticgraph.graph.engine import Runner
+    patch = load(write_patch(TWO_HANDS))
+    drivers = open_drivers(patch)
+    sent = {name: [] for name in drivers}
+    for name, driver in drivers.items():
+        driver.send = lambda t0, force, name=name: sent[name].append(np.array(force))
+    runner = Runner(patch, drivers=drivers, blocksize=32)
+    runner.process(32)
+    assert all(np.any(s[-1] != 0.0) for s in sent.values()), sent      # a pushing spring on each hand
+    drivers["a"].lost = "unplugged"
+    with pytest.raises(SafetyStop, match="device 'a' stopped answering: unplugged"):
+        runner.process(32)
+    assert all(len(s) == 2 and np.all(s[-1] == 0.0) for s in sent.values()), sent
+    runner.stop()

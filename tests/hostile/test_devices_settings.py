@@ -39,7 +39,7 @@ def patch(tmp_path):
      "max_force, profile, recording, vendor_id, product_id, serial, path"),
     ("finger=simulated,scrpt=1", "unknown setting 'scrpt'; the simulated driver accepts: max_force, mass, "
                                  "hand_stiffness, hand_damping, hold"),
-    ("finger=hdi", "unknown driver 'hdi' (did you mean 'hid'?); the drivers are: hid, midi, osc, replay, serial, simulated"),
+    ("finger=hdi", "unknown driver 'hdi' (did you mean 'hid'?); the drivers are: evdev, hid, midi, osc, replay, serial, simulated"),
     ("finger=simulated,max_force=.nan", "device 'finger' (simulated): max_force=.nan: '.nan': numbers must be finite"),
     ("finger=simulated,max_force=1e999", "numbers must be finite"),
     ("finger=simulated,max_force=soft", "max_force=soft: 'soft' is not of type 'number'"),
