@@ -111,7 +111,10 @@ static int live(host *h, double seconds)
     ports[0] = jack_port_register(c, "out_left", JACK_DEFAULT_AUDIO_TYPE, JackPortIsOutput, 0);
     ports[1] = jack_port_register(c, "out_right", JACK_DEFAULT_AUDIO_TYPE, JackPortIsOutput, 0);
     jack_set_process_callback(c, process, h);
-    if (ports[0] == NULL || ports[1] == NULL || jack_activate(c) != 0) { fputs("host: JACK refused\n", stderr); return 2; }
+    if (ports[0] == NULL || ports[1] == NULL || jack_activate(c) != 0) {
+        fputs("host: JACK refused\n", stderr);
+        return 2;
+    }
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     while (!stop && (seconds <= 0.0 || waited < seconds)) {

@@ -156,7 +156,9 @@ class {cls} extends AudioWorkletProcessor {{
       out.forEach((col, k) => all.set(col, k * n));
       this.port.postMessage({{frame: this.frame, out: all}}, [all.buffer]);
     }} else if (META.outputs.some((p) => p.kind !== 'audio')) {{
-      this.port.postMessage({{forces: META.outputs.filter((p) => p.kind !== 'audio').map((p) => out[META.outputs.indexOf(p)][n - 1])}});
+      const forces = [];
+      META.outputs.forEach((p, k) => {{ if (p.kind !== 'audio') forces.push(out[k][n - 1]); }});
+      this.port.postMessage({{forces}});
     }}
     this.frame += n;
     return true;

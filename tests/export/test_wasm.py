@@ -78,7 +78,7 @@ def _render_in_chromium(folder, tmp_path, length, rate, outputs, channels, input
     with static_server(folder) as url, chromium(tmp_path) as driver:
         driver.get(url + "index.html")
         assert driver.execute_script("return document.body.dataset.ready") == "1"
-        encoded = base64.b64encode(np.ascontiguousarray(inputs, "<f8").tobytes()).decode() if inputs is not None else None
+        encoded = None if inputs is None else base64.b64encode(np.ascontiguousarray(inputs, "<f8").tobytes()).decode()
         got = driver.execute_async_script(RENDER, length, rate, channels, encoded, [list(s) for s in sets])
     assert got["errors"] == [], got["errors"]
     assert got["frames"] == list(range(0, length + QUANTUM - 1, QUANTUM))[:len(got["frames"])]
