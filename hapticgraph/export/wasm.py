@@ -83,7 +83,8 @@ WORKLET = """\
 // device rows to play first (optional), sets: [[frame, index, value], ...] (optional), record: post
 // every block's outputs as float64}}. Messages in: {{set: [index, value]}} (from the next block on),
 // {{input: Float64Array}} (rows of the device columns, queued; the last row is held when the queue
-// is empty). Messages out: {{ready: true}}, {{error: text}}, {{fault: code, frame}},
+// is empty); a message with an `id` is acknowledged by {{ack: id, frame}}, the frame from which it
+// applies. Messages out: {{ready: true}}, {{error: text}}, {{fault: code, frame}},
 // {{forces: [...]}} (each block's last force per device column), {{frame, out: Float64Array}} when recording.
 const META = {meta};
 
@@ -102,6 +103,7 @@ class {cls} extends AudioWorkletProcessor {{
     this.port.onmessage = (e) => {{
       if (e.data.set) this.pending.push(e.data.set);
       if (e.data.input) this.queue.push(Float64Array.from(e.data.input));
+      if (e.data.id !== undefined) this.port.postMessage({{ack: e.data.id, frame: this.frame}});
     }};
     this.block = 128;
     this.x = new WebAssembly.Instance(new WebAssembly.Module(o.wasm), {{}}).exports;

@@ -1,7 +1,8 @@
 """`--to wasm`: NAME.wasm imports nothing and exports the C API and its buffer interface; NAME.js
 plays it in an AudioWorklet; index.html loads it from a static server. In headless Chromium
 (an OfflineAudioContext rendered and read back) the worklet gives the Python run's samples: its
-float64 outputs bit for bit, the rendered float32 buffer as their rounding. (wasmtime runs every
+float64 outputs bit for bit, the rendered float32 buffer as their rounding, with the device's
+rows and a live change sent by message. (wasmtime runs every
 shipped patch's module in test_c_waveguides.py, beside the native C.)"""
 import base64
 import contextlib
@@ -25,7 +26,7 @@ QUANTUM = 128         # the Web Audio render quantum: the worklet's block
 
 RENDER = """
 const done = arguments[arguments.length - 1];
-const [length, rate, channels, inputs, sets] = arguments;
+const [length, rate, channels, inputs, sets, suspendAt] = arguments;
 const bytes = (b64) => Uint8Array.from(atob(b64), (c) => c.charCodeAt(0)).buffer;
 const b64 = (buffer) => {
   const u = new Uint8Array(buffer);
@@ -35,14 +36,29 @@ const b64 = (buffer) => {
 };
 (async () => {
   const context = new OfflineAudioContext(channels, length, rate);
-  const options = {record: true, sets};
-  if (inputs) options.inputs = new Float64Array(bytes(inputs));
-  const node = await window.hapticgraph.start(context, options);
-  const records = [], errors = [];
+  const node = await window.hapticgraph.start(context, {record: true});
+  const records = [], errors = [], acks = {};
   node.port.onmessage = (e) => {
     if (e.data.out) records.push(e.data);
     if (e.data.error || e.data.fault) errors.push(JSON.stringify(e.data));
+    if (e.data.ack !== undefined) acks[e.data.ack] = e.data.frame;
   };
+  let id = 0;
+  const send = async (message) => {            // posted, and its acknowledgement awaited
+    const mine = id++;
+    node.port.postMessage({...message, id: mine});
+    const start = Date.now();
+    while (!(mine in acks) && Date.now() - start < 10000) await new Promise((r) => setTimeout(r, 5));
+    return acks[mine];
+  };
+  if (inputs) await send({input: new Float64Array(bytes(inputs))});       // the device's rows, queued
+  const applied = [];
+  if (sets.length) {
+    context.suspend(suspendAt).then(async () => {    // rendering stopped: the sets reach the next quantum
+      for (const [index, value] of sets) applied.push(await send({set: [index, value]}));
+      context.resume();
+    });
+  }
   const buffer = await context.startRendering();
   const need = Math.ceil(length / 128), start = Date.now();
   while (records.length < need && Date.now() - start < 30000) await new Promise((r) => setTimeout(r, 50));
@@ -52,8 +68,8 @@ const b64 = (buffer) => {
   for (const r of records) { all.set(r.out, at); at += r.out.length; }
   const audio = new Float32Array(length * channels);
   for (let c = 0; c < channels; c++) audio.set(buffer.getChannelData(c), c * length);
-  done({errors, frames: records.map((r) => r.frame), records: b64(all.buffer), audio: b64(audio.buffer)});
-})().catch((e) => done({errors: [String(e)], frames: [], records: '', audio: ''}));
+  done({errors, applied, frames: records.map((r) => r.frame), records: b64(all.buffer), audio: b64(audio.buffer)});
+})().catch((e) => done({errors: [String(e)], applied: [], frames: [], records: '', audio: ''}));
 """
 
 
@@ -73,19 +89,21 @@ def static_server(folder):
         thread.join(timeout=10)
 
 
-def _render_in_chromium(folder, tmp_path, length, rate, outputs, channels, inputs=None, sets=()):
-    """The worklet's records (float64, length × outputs) and the rendered buffer (float32, length × channels)."""
+def _render_in_chromium(folder, tmp_path, length, rate, outputs, channels, inputs=None, sets=(), at=0.0):
+    """The worklet's records (float64, length × outputs), the rendered buffer (float32, length ×
+    channels) and the frames the sets applied from. The device's rows go by one message before
+    rendering; the sets by messages while the rendering is suspended at `at` seconds."""
     with static_server(folder) as url, chromium(tmp_path) as driver:
         driver.get(url + "index.html")
         assert driver.execute_script("return document.body.dataset.ready") == "1"
         encoded = None if inputs is None else base64.b64encode(np.ascontiguousarray(inputs, "<f8").tobytes()).decode()
-        got = driver.execute_async_script(RENDER, length, rate, channels, encoded, [list(s) for s in sets])
+        got = driver.execute_async_script(RENDER, length, rate, channels, encoded, [list(s) for s in sets], at)
     assert got["errors"] == [], got["errors"]
     assert got["frames"] == list(range(0, length + QUANTUM - 1, QUANTUM))[:len(got["frames"])]
     blocks = np.frombuffer(base64.b64decode(got["records"]), "<f8").reshape(-1, outputs, QUANTUM)
     records = blocks.transpose(0, 2, 1).reshape(-1, outputs)[:length]
     audio = np.frombuffer(base64.b64decode(got["audio"]), "<f4").reshape(channels, length).T
-    return records, audio
+    return records, audio, got["applied"]
 
 
 def test_the_module_imports_nothing_and_exports_the_api(tmp_path, wasm_export, capsys):
@@ -103,20 +121,26 @@ def test_the_module_imports_nothing_and_exports_the_api(tmp_path, wasm_export, c
 
 
 def test_karplus_strong_in_the_worklet_gives_the_bits_of_render(tmp_path, same_bits):
+    """A live change by message while the rendering is suspended: it applies from the next
+    quantum (the frame the worklet acknowledges), as Session.set applies at a block boundary."""
     assert main(["export", str(KS), "--to", "wasm", "--out", str(tmp_path / "ks")]) == 0
     gain = [p.name for p in export_c(hapticgraph.load(KS), "karplus_strong").params].index("damp.gain")
-    with hapticgraph.Session.open(KS, blocksize=10 * QUANTUM) as s:
+    length = 300 * QUANTUM
+    records, audio, applied = _render_in_chromium(tmp_path / "ks", tmp_path, length, 44100, 2, 2,
+                                                  sets=[(gain, 0.9)], at=100 * QUANTUM / 44100)
+    assert len(applied) == 1 and applied[0] % QUANTUM == 0 and 0 < applied[0] < length, applied
+    with hapticgraph.Session.open(KS, blocksize=QUANTUM) as s:
         blocks = []
-        for k in range(30):
-            if k == 12:
+        for k in range(length // QUANTUM):
+            if k * QUANTUM == applied[0]:
                 s.set("damp", "gain", 0.9)
-            blocks.append(np.array(s.audio_of(s.process(10 * QUANTUM))))
+            blocks.append(np.array(s.audio_of(s.process(QUANTUM))))
     expected = np.concatenate(blocks)
-    records, audio = _render_in_chromium(tmp_path / "ks", tmp_path, len(expected), 44100, 2, 2,
-                                         sets=[(12 * 10 * QUANTUM, gain, 0.9)])
     assert np.abs(expected).max() > 0.1
     assert same_bits(records, expected)                         # float64 in the worklet: the bits
     assert same_bits(audio, expected.astype(np.float32))        # what Web Audio plays: their rounding
+    unchanged = hapticgraph.render(KS, seconds=length / 44100).audio
+    assert not same_bits(records[applied[0]:], unchanged[applied[0]:length])     # the change was heard
 
 
 def test_fig8_in_the_worklet_takes_its_finger_by_message_and_sends_its_force(tmp_path, wasm_export, same_bits):
@@ -124,8 +148,8 @@ def test_fig8_in_the_worklet_takes_its_finger_by_message_and_sends_its_force(tmp
     built = wasm_export(FIG8)
     audio, forces, inputs, rate = _python_run(FIG8, built.lowered, 0.5, 950)
     channels = audio.shape[1]
-    records, played = _render_in_chromium(tmp_path / "fig8", tmp_path, len(audio), rate,
-                                          len(built.lowered.outputs), channels, inputs=inputs)
+    records, played, _ = _render_in_chromium(tmp_path / "fig8", tmp_path, len(audio), rate,
+                                             len(built.lowered.outputs), channels, inputs=inputs)
     assert np.abs(audio).max() > 0.0 and np.abs(forces).max() > 0.0
     assert same_bits(records[:, :channels], audio)
     assert same_bits(records[:, channels:], forces)
