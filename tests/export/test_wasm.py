@@ -11,6 +11,7 @@ import http.server
 import threading
 
 import numpy as np
+import pytest
 
 import hapticgraph
 from browser_env import chromium
@@ -18,7 +19,7 @@ from hapticgraph.cli.main import main
 from hapticgraph.export.wasm import API
 from hapticgraph.graph.c import export_c
 from project_env import ROOT
-from test_c_waveguides import _python_run
+from test_c_waveguides import LATTICES, LIBM_DRIFT, WASM_DRIFT, WAVEGUIDES, _python_run
 
 KS = ROOT / "patches" / "karplus_strong.yaml"
 FIG8 = ROOT / "patches" / "fig8_pluck_damp.yaml"
@@ -154,3 +155,25 @@ def test_fig8_in_the_worklet_takes_its_finger_by_message_and_sends_its_force(tmp
     assert same_bits(records[:, :channels], audio)
     assert same_bits(records[:, channels:], forces)
     assert same_bits(played, audio.astype(np.float32))
+
+
+@pytest.mark.parametrize("name", WAVEGUIDES + LATTICES)
+def test_every_patch_in_the_worklet_gives_what_wasmtime_gives(name, tmp_path, wasm_export, same_bits):
+    """The sameness test of test_c_waveguides.py in the browser: half a second of each shipped
+    patch, its device's rows by message; the bits of the Python run, or within the libm drift."""
+    path = ROOT / "patches" / f"{name}.yaml"
+    assert main(["export", str(path), "--to", "wasm", "--out", str(tmp_path / name)]) == 0
+    built = wasm_export(path)
+    assert all(p.kind != "audio" for p in built.lowered.inputs)       # every input is a device's row
+    audio, forces, inputs, rate = _python_run(path, built.lowered, 0.5, 950)
+    channels = audio.shape[1]
+    records, played, _ = _render_in_chromium(tmp_path / name, tmp_path, len(audio), rate, len(built.lowered.outputs),
+                                             channels, inputs=inputs if len(built.lowered.inputs) else None)
+    assert np.abs(audio).max() > 0.0
+    assert same_bits(records, built.run(rate, len(audio), block=950, inputs=inputs))     # V8 = wasmtime
+    assert same_bits(records[:, channels:], forces)
+    if name in LIBM_DRIFT:
+        assert np.abs(records[:, :channels] - audio).max() <= WASM_DRIFT * np.abs(audio).max()
+    else:
+        assert same_bits(records[:, :channels], audio)
+        assert same_bits(played, audio.astype(np.float32))
