@@ -1,5 +1,6 @@
 """`hapticgraph studio PATCH`: load the patch, start its sound, serve the page (uvicorn) and print
 its URL with the token as the first line on standard output."""
+import os
 import signal
 import socket
 import sys
@@ -9,7 +10,8 @@ import webbrowser
 from .common import UsageError, audio_channels, device_choices
 from ..devices import DeviceError, check_choices
 from ..graph.patch import load
-from ..studio.server import build_app, new_token
+from ..studio.recovery import edits_text
+from ..studio.server import new_token, serve
 from ..studio.session import StudioSession
 
 
@@ -69,6 +71,21 @@ def _quiet(signum, frame):
     pass
 
 
+def _note(message):
+    print(f"hapticgraph: note: {message}", file=sys.stderr, flush=True)
+
+
+def _stopped(studio, signum):
+    """The one line said when the studio stops: by what, and where its unsaved edits are."""
+    line = "hapticgraph: studio stopped" + (f" ({signum.name})" if signum is not None else "")
+    kept = studio.kept()
+    if kept is not None:
+        edits, file = kept
+        line += (f"; {edits_text(edits)} kept in {file}, offered when the studio opens "
+                 f"{os.path.basename(studio.path)} again")
+    return line
+
+
 def cmd_studio(args):
     _check(args)
     choices = device_choices(args.device)
@@ -80,27 +97,27 @@ def cmd_studio(args):
     device = _audio_device(args, patch)
     sock = _bind(args.host, args.port)
     studio = StudioSession(args.patch, audio=args.audio, choices=choices, blocksize=args.blocksize,
-                           fps=args.fps, device=device)
+                           fps=args.fps, device=device, note=_note)
     token = new_token()
     port = sock.getsockname()[1]
     host = f"[{args.host}]" if ":" in args.host else args.host
     url = f"http://{host}:{port}/?token={token}"
     print(f"hapticgraph studio: {url}", flush=True)
     print(f"hapticgraph: studio of {patch.name!r} ({args.audio} audio); Ctrl-C stops it", file=sys.stderr)
-    import uvicorn
-    server = uvicorn.Server(uvicorn.Config(build_app(studio, token, args.host, start=True), log_level="warning",
-                                           lifespan="on", timeout_graceful_shutdown=2))
     sys.setswitchinterval(SWITCH)
     if not args.no_browser:
         threading.Timer(0.3, webbrowser.open, (url,)).start()
     # uvicorn stops gracefully on SIGINT/SIGTERM, then raises the signal again under the handler
-    # found before it: a quiet one, so that the studio closes its sound and exits 0
+    # found before it: a quiet one, so that the studio closes its sound and exits 0 (Ctrl-C is
+    # how a server is stopped, not a failure); the recovery file stays for the next studio
     previous = {sig: signal.signal(sig, _quiet) for sig in (signal.SIGINT, signal.SIGTERM)}
+    stopped_by = None
     try:
-        server.run(sockets=[sock])
+        stopped_by = serve(studio, token, sock, args.host)
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
         studio.close()
         sock.close()
+    print(_stopped(studio, stopped_by), file=sys.stderr, flush=True)
     return 0

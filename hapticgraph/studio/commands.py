@@ -133,7 +133,8 @@ def _text(st, msg, view):
 
 def _state(st, msg, view):
     return {"text": st.text, "path": st.path, "dirty": st.text != st.saved, "problem": st.problem,
-            "undo": len(st.undo_stack), "redo": len(st.redo_stack), "t": st.live.t / st.live.rate}
+            "undo": len(st.undo_stack), "redo": len(st.redo_stack), "t": st.live.t / st.live.rate,
+            "recovery": None if st.offer is None else st.offer.event()}
 
 
 def _modes(st, msg, view):
@@ -205,6 +206,8 @@ COMMANDS = {
     "join": _join, "place": _place, "remove": _remove, "map": _map, "text": _text,
     "modes": _modes, "mode_shape": _mode_shape, "probe": _probe, "unprobe": _unprobe,
     "frames": _frames, "restart": _restart,
+    "recover": lambda st, msg, view: st.recover(),
+    "discard_recovery": lambda st, msg, view: st.discard_recovery(),
 }
 
 

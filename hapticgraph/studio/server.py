@@ -1,4 +1,5 @@
-"""The studio's web server (Starlette): the page, its files and the WebSocket of docs/studio.md.
+"""The studio's web server (Starlette, served by uvicorn): the page, its files and the WebSocket of
+docs/studio.md.
 
 Every HTTP request needs the token (`?token=T`, or the cookie the page's own response sets);
 the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio's own.
@@ -6,12 +7,15 @@ the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio
 import asyncio
 import contextlib
 import json
+import logging
 import math
 import os
 import secrets
+import signal
 from http.cookies import SimpleCookie
 from urllib.parse import parse_qs
 
+import uvicorn
 from starlette.applications import Starlette
 from starlette.responses import FileResponse, PlainTextResponse
 from starlette.routing import Mount, Route, WebSocketRoute
@@ -159,11 +163,13 @@ class Connection:
 
         def listener(event):
             loop.call_soon_threadsafe(self.events.put_nowait, event)
-        hello = await asyncio.to_thread(self._describe)
-        await self.send_json({**hello, "type": "hello"})
-        self.studio.listeners.append(listener)
-        tasks = [asyncio.create_task(t) for t in (self._events(), self._frames(), self._streams(), self._status())]
+        hello, offer = await asyncio.to_thread(self._welcome, listener)
+        tasks = []
         try:
+            await self.send_json({**hello, "type": "hello"})
+            if offer is not None:
+                await self.send_json(offer)
+            tasks = [asyncio.create_task(t) for t in (self._events(), self._frames(), self._streams(), self._status())]
             await self._commands()
         except (WebSocketDisconnect, RuntimeError):
             pass
@@ -173,9 +179,14 @@ class Connection:
                 t.cancel()
             await asyncio.gather(*tasks, return_exceptions=True)
 
-    def _describe(self):
+    def _welcome(self, listener):
+        """The hello, the recovery offer (or None) and the listener registered, at one moment:
+        every event after the hello reaches this connection, none before it."""
         with self.studio.lock:
-            return self.studio.describe()
+            hello, offer = self.studio.describe(), self.studio.offer
+            event = None if offer is None else offer.event()
+            self.studio.listeners.append(listener)
+            return hello, event
 
     async def _commands(self):
         while True:
@@ -221,3 +232,26 @@ class Connection:
         while True:
             await asyncio.sleep(STATUS_EVERY)
             await self.send_json(self.studio.status())
+
+
+class Server(uvicorn.Server):
+    """uvicorn's server, which notes the signal that stops it (`stopped_by`): once the user has
+    asked it to stop, what uvicorn would still log (a page that does not answer the close in
+    time) is no news, and the one line the studio prints then says everything."""
+
+    stopped_by = None
+
+    def handle_exit(self, sig, frame):
+        if self.stopped_by is None:
+            self.stopped_by = signal.Signals(sig)
+            logging.getLogger("uvicorn.error").setLevel(logging.CRITICAL)
+        super().handle_exit(sig, frame)
+
+
+def serve(studio, token, sock, host="127.0.0.1"):
+    """Serve `studio` on the listening socket `sock` until SIGINT or SIGTERM; the signal that
+    stopped it (a signal.Signals), or None."""
+    server = Server(uvicorn.Config(build_app(studio, token, host, start=True), log_level="warning", lifespan="on",
+                                   timeout_graceful_shutdown=2))
+    server.run(sockets=[sock])
+    return server.stopped_by

@@ -1,18 +1,18 @@
 """The studio's state: the patch text being edited (with undo and redo), the patch it loads to,
 and the sound running it. Every edit is a new text that goes through the loader first; then it
 reaches the running sound (live parameters set, anything else swapped in keeping state) and
-only then becomes the text. Commands are run one at a time (`lock`)."""
+only then becomes the text, kept in the recovery file until it is saved (recovery.py).
+Commands are run one at a time (`lock`)."""
 import difflib
 import os
 import sys
-import tempfile
 import threading
 import time
 
 from ..devices import DeviceError
 from ..graph.errors import PatchError
 from ..graph.patch import load
-from . import adapter
+from . import adapter, recovery
 from .describe import describe
 from .runner import CardRunner, ClockRunner
 from .tap import Tap
@@ -35,17 +35,23 @@ def read_file(path):
 
 
 class StudioSession:
-    """One patch file open in the studio. `audio`: card | browser | none."""
+    """One patch file open in the studio. `audio`: card | browser | none; `note(message)` is told
+    what the user should know about the recovery file (an offer of unsaved edits, one not
+    offered, one that cannot be written)."""
 
     PlanError = adapter.PlanError
 
-    def __init__(self, path, audio="none", choices=None, blocksize=256, fps=60, device=None):
+    def __init__(self, path, audio="none", choices=None, blocksize=256, fps=60, device=None, note=None):
         self.path = os.fspath(path)
         self.saved = read_file(self.path)
         self.text = self.saved
         self.patch = load(self.path, text=self.text)          # PatchError: the CLI exits 2
         self.audio, self.choices, self.blocksize, self.fps = audio, dict(choices or {}), int(blocksize), fps
         self.undo_stack, self.redo_stack = [], []
+        self.note = note if note is not None else (lambda message: None)
+        self.unsaved = 0             # accepted edits (undo and redo too) since the text was the file's
+        self.unkept = None           # why the last edit could not be kept in the recovery file
+        self.offer = recovery.find(self.path, self.saved, self.note)
         self.probes = {}
         self.problem = None
         self.lock = threading.RLock()
@@ -76,8 +82,10 @@ class StudioSession:
 
     def describe(self):
         d = describe(self.patch, self.text)
+        kept = self.kept()
         d.update(version=VERSION, fps=self.fps, dirty=self.text != self.saved, undo=len(self.undo_stack),
                  redo=len(self.redo_stack), problem=self.problem,
+                 kept=None if kept is None else {"edits": kept[0], "file": kept[1]},
                  audio={"mode": self.audio, "rate": self.patch.rate, "blocksize": self.blocksize,
                         "channels": self.live.session.channels})
         return d
@@ -103,12 +111,17 @@ class StudioSession:
 
     def change(self, text, cause, block=None):
         """Make `text` the patch: loaded, then applied to the sound, then kept (undo history)."""
+        self.answered()
         if text == self.text:
             return
         patch = self.accept(text, block)
-        self.undo_stack.append(self.text)
-        self.redo_stack.clear()
+        self.remember(self.text)
         self.commit(text, patch, cause)
+
+    def remember(self, text):
+        """`text` onto the undo history; no redo after a new edit."""
+        self.undo_stack.append(text)
+        self.redo_stack.clear()
 
     def accept(self, text, block=None):
         """The patch of `text`, applied to the running sound; CommandError (nothing changed) if
@@ -120,9 +133,64 @@ class StudioSession:
             raise CommandError([self.where(block, str(exc))]) from None
         return patch
 
-    def commit(self, text, patch, cause):
+    def commit(self, text, patch, cause, edits=None):
         self.text, self.patch = text, patch
+        self.keep(edits)
         self._emit({**self.describe(), "type": "changed", "cmd": cause})
+
+    # -- unsaved edits --------------------------------------------------------------------------
+    def keep(self, edits=None):
+        """The text into the recovery file after an accepted edit (`edits`: the count it stands
+        for, default one more); the file removed when the text is the file's again."""
+        if self.text == self.saved:
+            self.unsaved = 0
+            recovery.remove(self.path)
+            return
+        self.unsaved = self.unsaved + 1 if edits is None else edits
+        try:
+            recovery.write(self.path, self.text, self.saved, self.unsaved)
+        except OSError as exc:
+            unkept = f"cannot keep the unsaved edits in {recovery.path_of(self.path)}: {exc.strerror or exc}"
+            if unkept != self.unkept:
+                self.note(unkept)
+            self.unkept = unkept
+        else:
+            self.unkept = None
+
+    def answered(self):
+        """CommandError while unsaved edits of an earlier studio are offered: an edit or a save
+        now would replace them."""
+        if self.offer is not None:
+            raise CommandError([f"studio: {recovery.edits_text(self.offer.edits)} of an earlier studio are "
+                                f"offered ({self.offer.file}): recover them, or discard_recovery, first"])
+
+    def recover(self):
+        """The offered text made the patch (through the loader and the sound, as any edit)."""
+        offer = self.offer
+        if offer is None:
+            raise CommandError(["studio: recover: no unsaved edits are offered"])
+        patch = self.accept(offer.text)
+        self.offer = None
+        self.remember(self.text)
+        self.commit(offer.text, patch, "recover", edits=offer.edits)
+        self._emit({"type": "recovery", "offered": False, "cmd": "recover"})
+        return {"edits": offer.edits, "undo": len(self.undo_stack), "redo": len(self.redo_stack)}
+
+    def discard_recovery(self):
+        if self.offer is None:
+            raise CommandError(["studio: discard_recovery: no unsaved edits are offered"])
+        self.offer = None
+        recovery.remove(self.path)
+        self._emit({"type": "recovery", "offered": False, "cmd": "discard_recovery"})
+        return {}
+
+    def kept(self):
+        """(edits, file) of the recovery file as this studio leaves it, or None."""
+        if self.offer is not None:
+            return self.offer.edits, self.offer.file
+        if self.unsaved and self.unkept is None:
+            return self.unsaved, recovery.path_of(self.path)
+        return None
 
     def apply(self, patch):
         """To the running sound: live parameters when only they changed, else a swap."""
@@ -164,6 +232,7 @@ class StudioSession:
 
     def step(self, back):
         """undo (back) or redo."""
+        self.answered()
         source, target = (self.undo_stack, self.redo_stack) if back else (self.redo_stack, self.undo_stack)
         if not source:
             raise CommandError([f"studio: nothing to {'undo' if back else 'redo'}"])
@@ -180,31 +249,24 @@ class StudioSession:
                                             fromfile=self.path, tofile=f"{self.path} (edited)"))
 
     def save(self, path=None):
-        """Write the text atomically (a temporary file beside it, then renamed)."""
+        """Write the text atomically (a temporary file beside it, then renamed); the recovery file
+        is removed then."""
+        self.answered()
         target = self.path if path is None else os.path.join(os.path.dirname(self.path), os.fspath(path))
         if not target.endswith((".yaml", ".yml")):
             raise CommandError([f"studio: save: {path!r}: a patch is saved as a .yaml (or .yml) file"])
-        folder = os.path.dirname(os.path.abspath(target))
         data = self.text.encode("utf-8")
         try:
-            fd, tmp = tempfile.mkstemp(prefix=".hapticgraph-studio-", suffix=".yaml", dir=folder)
-            try:
-                with os.fdopen(fd, "wb") as f:
-                    f.write(data)
-                    f.flush()
-                    os.fsync(f.fileno())
-                if os.path.exists(target):
-                    os.chmod(tmp, os.stat(target).st_mode & 0o7777)
-                os.replace(tmp, target)
-            except BaseException:
-                if os.path.exists(tmp):
-                    os.unlink(tmp)
-                raise
+            mode = os.stat(target).st_mode & 0o7777 if os.path.exists(target) else None
+            recovery.write_atomic(target, data, mode)
         except OSError as exc:
             raise CommandError([f"studio: cannot save {target}: {exc.strerror or exc}"]) from None
+        recovery.remove(self.path)
         if path is not None:
             self.path = target
             self.patch = self.load_text(self.text)
         self.saved = self.text
+        self.unsaved = 0
+        recovery.remove(self.path)
         self._emit({**self.describe(), "type": "changed", "cmd": "save"})
         return {"path": target, "bytes": len(data)}

@@ -12,6 +12,7 @@ import { Modes } from "./modes.js";
 import { Player } from "./audio.js";
 import { History } from "./history.js";
 import { Mapping } from "./mapping.js";
+import { Recovery } from "./recovery.js";
 import { $, showError, clearError } from "./dom.js";
 
 const token = new URLSearchParams(location.search).get("token") || "";
@@ -119,15 +120,22 @@ function pace(drawn) {
 async function main() {
   tabs();
   link.on("cells", (f) => { if (!panels.modes.showing(f.lattice)) view.take(f.lattice, f.values); });
+  const ctx = { send, view, link, studio, panels };
+  const recovery = new Recovery(ctx);      // not a panel: it has nothing to update from the instrument
+  studio.recovery = recovery;
   link.on("event", (m) => {
     if (m.type === "changed") apply(m);
     else if (m.type === "problem") showError([m.message]);
+    else if (m.type === "recovery") recovery.event(m);
     else if (m.type === "status") (studio.status = m), $("#status").textContent = `t ${m.t.toFixed(1)} s · xruns ${m.xruns} · load ${(100 * m.load).toFixed(0)} %`;
   });
-  link.on("close", () => showError(["studio: the connection to the studio closed"]));
+  // a lost connection: the page keeps what it has (and downloads the text); the same studio back,
+  // the page takes its hello as the instrument now and asks for its cell frames again
+  link.on("close", () => recovery.offline());
+  link.on("retry", (attempts) => recovery.retrying(attempts));
+  link.on("hello", (h) => { recovery.online(); apply(h); pace.asked = undefined; pace(studio.fps); });
   let hello;
   try { hello = await link.open(); } catch (e) { showError([e.message]); return; }
-  const ctx = { send, view, link, studio, panels };
   panels.tools = new Tools(ctx);
   panels.params = new Params(ctx);
   panels.wiring = new Wiring(ctx);
