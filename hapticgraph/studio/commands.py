@@ -11,6 +11,7 @@ from .session import CommandError
 from .yamltext import TextError
 
 MAX_MODES = 200
+MAX_PROBES = 32            # signals streamed at once (each is a column the sound computes and sends)
 
 
 class View:
@@ -161,12 +162,17 @@ def _mode_shape(st, msg, view):
 def _probe(st, msg, view):
     signal = _field(msg, "signal", str).strip()
     if signal not in st.probes:
+        if len(st.probes) >= MAX_PROBES:
+            raise CommandError([f"studio: probe: {MAX_PROBES} signals are probed already (unprobe one first)"])
         st.probes[signal] = max(st.probes.values(), default=0) + 1
         try:
             st.swap(st.patch, probes=list(st.probes))
         except (st.PlanError, ValueError) as exc:
             del st.probes[signal]
             raise CommandError([st.where(signal.split("[")[0].split(".")[0], str(exc))]) from None
+        except BaseException:
+            del st.probes[signal]          # whatever stopped the swap, the probes are as they were
+            raise
         st.tap.set_probes(st.probes)
     return {"probe": st.probes[signal], "signal": signal, "rate": st.patch.rate}
 
@@ -211,14 +217,21 @@ COMMANDS = {
 }
 
 
+def _shown(value, most=60):
+    """A value a client sent, as an error message quotes it: its repr, cut at `most` characters."""
+    text = repr(value) if isinstance(value, (str, int, float, bool, type(None))) else f"a {type(value).__name__}"
+    return text if len(text) <= most else text[:most] + "…"
+
+
 def handle(st, msg, view):
     """The reply to one command object (docs/studio.md)."""
     cmd = msg.get("cmd") if isinstance(msg, dict) else None
-    reply = {"type": "reply", "id": msg.get("id") if isinstance(msg, dict) else None, "cmd": cmd}
+    reply = {"type": "reply", "id": msg.get("id") if isinstance(msg, dict) else None,
+             "cmd": cmd if isinstance(cmd, str) else None}
     try:
         fn = COMMANDS.get(cmd) if isinstance(cmd, str) else None
         if fn is None:
-            raise CommandError([f"studio: unknown command {cmd!r} (one of {', '.join(sorted(COMMANDS))})"])
+            raise CommandError([f"studio: unknown command {_shown(cmd)} (one of {', '.join(sorted(COMMANDS))})"])
         with st.lock:
             result = fn(st, msg, view)
         return {**reply, "ok": True, "result": result}

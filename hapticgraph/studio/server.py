@@ -2,9 +2,13 @@
 docs/studio.md.
 
 Every HTTP request needs the token (`?token=T`, or the cookie the page's own response sets);
-the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio's own.
+the WebSocket needs `?token=T` and, from a browser, an Origin that is the studio's own. Whatever
+a connection sends, it gets a reply or its socket is closed, and what the server keeps for it is
+bounded: one message of at most MAX_MESSAGE in, the latest `changed` event and EVENT_BACKLOG
+others out, MAX_CONNECTIONS connections at once.
 """
 import asyncio
+import collections
 import contextlib
 import json
 import logging
@@ -30,6 +34,11 @@ LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
 STATUS_EVERY = 1.0
 STREAM_POLL = 0.01         # seconds between looks for audio and probe frames while some flow
 IDLE_POLL = 0.1            # ... while none do (each look takes the GIL from the sound thread)
+MAX_MESSAGE = 1 << 20      # bytes of one message from a client (a patch's text is kilobytes): more closes it (1009)
+MAX_CONNECTIONS = 16       # WebSockets at once; more are refused (HTTP 403) until one closes
+EVENT_BACKLOG = 64         # events other than `changed` waiting for a slow connection; the oldest go first
+MAX_DEPTH = 64             # lists and objects in one another in a command (a patch's deepest is ~5): what
+                           # reads it, writes it back (the `id`) or quotes it then never recurses too deep
 
 
 def new_token():
@@ -107,8 +116,17 @@ def build_app(studio, token, host="127.0.0.1", start=False):
         response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
         return response
 
+    open_now = []
+
     async def socket(websocket):
-        await Connection(studio, websocket).run()
+        if len(open_now) >= MAX_CONNECTIONS:
+            await websocket.close(code=1013)          # before the handshake: HTTP 403
+            return
+        open_now.append(websocket)
+        try:
+            await Connection(studio, websocket).run()
+        finally:
+            open_now.remove(websocket)
 
     async def missing(request):
         return PlainTextResponse("hapticgraph studio: the page's files are not installed", status_code=404)
@@ -136,13 +154,62 @@ def _finite(obj):
     return obj
 
 
+class Mailbox:
+    """The events waiting to be sent on one connection. A `changed` event replaces one not yet
+    sent (each is the whole instrument: a page that is behind needs only the latest); of the
+    others at most `backlog` wait, the oldest dropped first. So a page that reads slowly, or not
+    at all, costs the server a bounded amount however many edits are made."""
+
+    LATEST = "changed"
+
+    def __init__(self, backlog=EVENT_BACKLOG):
+        self.items, self.backlog, self.ready = collections.deque(), backlog, asyncio.Event()
+
+    def put(self, event):
+        if event.get("type") == self.LATEST:
+            for old in [e for e in self.items if e.get("type") == self.LATEST]:
+                self.items.remove(old)
+        self.items.append(event)
+        others = [e for e in self.items if e.get("type") != self.LATEST]
+        for old in others[:max(0, len(others) - self.backlog)]:
+            self.items.remove(old)
+        self.ready.set()
+
+    async def get(self):
+        while not self.items:
+            self.ready.clear()
+            await self.ready.wait()
+        return self.items.popleft()
+
+
+def _depth(value):
+    """How deeply lists and dicts nest in `value` (0 for a scalar), without recursion."""
+    deepest, todo = 0, [(value, 0)]
+    while todo:
+        v, d = todo.pop()
+        if isinstance(v, dict):
+            v = v.values()
+        elif not isinstance(v, list):
+            deepest = max(deepest, d)
+            continue
+        deepest = max(deepest, d + 1)
+        if d + 1 > MAX_DEPTH:
+            return d + 1
+        todo.extend((x, d + 1) for x in v)
+    return deepest
+
+
+def refusal(error, ident=None):
+    return {"type": "reply", "id": ident, "cmd": None, "ok": False, "error": error, "errors": [error]}
+
+
 class Connection:
     """One WebSocket: commands in, replies, events and frames out (one send at a time)."""
 
     def __init__(self, studio, websocket):
         self.studio, self.ws = studio, websocket
         self.view = View(studio.fps)
-        self.events = asyncio.Queue()
+        self.events = Mailbox()
         self.sending = asyncio.Lock()
 
     async def send_json(self, obj):
@@ -162,7 +229,7 @@ class Connection:
         loop = asyncio.get_running_loop()
 
         def listener(event):
-            loop.call_soon_threadsafe(self.events.put_nowait, event)
+            loop.call_soon_threadsafe(self.events.put, event)
         hello, offer = await asyncio.to_thread(self._welcome, listener)
         tasks = []
         try:
@@ -190,15 +257,31 @@ class Connection:
 
     async def _commands(self):
         while True:
-            text = await self.ws.receive_text()
-            try:
-                msg = json.loads(text)
-            except ValueError as exc:
-                await self.send_json({"type": "reply", "id": None, "cmd": None, "ok": False,
-                                      "error": f"studio: not JSON: {exc}", "errors": [f"studio: not JSON: {exc}"]})
+            message = await self.ws.receive()
+            if message["type"] == "websocket.disconnect":
+                raise WebSocketDisconnect(message.get("code", 1000))
+            msg, refused = self._parse(message)
+            if refused is not None:
+                await self.send_json(refused)
                 continue
             reply = await asyncio.to_thread(handle, self.studio, msg, self.view)
             await self.send_json(reply)
+
+    @staticmethod
+    def _parse(message):
+        """(the command object, None) or (None, the reply refusing it)."""
+        text = message.get("text")
+        if text is None:
+            return None, refusal("studio: binary frames carry no command: send a command as a JSON text frame")
+        if len(text) > MAX_MESSAGE:
+            return None, refusal(f"studio: a message of {len(text)} characters is over the limit ({MAX_MESSAGE})")
+        try:
+            msg = json.loads(text)
+        except (ValueError, RecursionError) as exc:   # RecursionError: nested deeper than Python reads
+            return None, refusal(f"studio: not JSON: {exc}")
+        if _depth(msg) > MAX_DEPTH:
+            return None, refusal(f"studio: a command nested deeper than {MAX_DEPTH} levels")
+        return msg, None
 
     async def _events(self):
         while True:
@@ -234,6 +317,17 @@ class Connection:
             await self.send_json(self.studio.status())
 
 
+class ClientFaults(logging.Filter):
+    """uvicorn logs a text frame that is not UTF-8 (its client's fault, closed with 1007) with a
+    traceback: one line is enough, as a warning."""
+
+    def filter(self, record):
+        if record.exc_info and isinstance(record.exc_info[1], UnicodeDecodeError):
+            record.exc_info, record.exc_text = None, None
+            record.levelno, record.levelname = logging.WARNING, "WARNING"
+        return True
+
+
 class Server(uvicorn.Server):
     """uvicorn's server, which notes the signal that stops it (`stopped_by`): once the user has
     asked it to stop, what uvicorn would still log (a page that does not answer the close in
@@ -251,7 +345,8 @@ class Server(uvicorn.Server):
 def serve(studio, token, sock, host="127.0.0.1"):
     """Serve `studio` on the listening socket `sock` until SIGINT or SIGTERM; the signal that
     stopped it (a signal.Signals), or None."""
+    logging.getLogger("uvicorn.error").addFilter(ClientFaults())
     server = Server(uvicorn.Config(build_app(studio, token, host, start=True), log_level="warning", lifespan="on",
-                                   timeout_graceful_shutdown=2))
+                                   timeout_graceful_shutdown=2, ws_max_size=MAX_MESSAGE))
     server.run(sockets=[sock])
     return server.stopped_by

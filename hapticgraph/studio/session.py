@@ -19,6 +19,7 @@ from .tap import Tap
 
 VERSION = 1
 SWAP_TIMEOUT = 120.0       # seconds a compiled swap may wait for the sound thread (a loaded machine)
+UNDO_BYTES = 16 << 20      # memory of the texts the undo history holds; beyond it the oldest go (a flood of edits)
 
 
 class CommandError(Exception):
@@ -47,7 +48,7 @@ class StudioSession:
         self.text = self.saved
         self.patch = load(self.path, text=self.text)          # PatchError: the CLI exits 2
         self.audio, self.choices, self.blocksize, self.fps = audio, dict(choices or {}), int(blocksize), fps
-        self.undo_stack, self.redo_stack = [], []
+        self.undo_stack, self.redo_stack, self.undo_bytes = [], [], 0
         self.note = note if note is not None else (lambda message: None)
         self.unsaved = 0             # accepted edits (undo and redo too) since the text was the file's
         self.unkept = None           # why the last edit could not be kept in the recovery file
@@ -119,8 +120,11 @@ class StudioSession:
         self.commit(text, patch, cause)
 
     def remember(self, text):
-        """`text` onto the undo history; no redo after a new edit."""
+        """`text` onto the undo history (the oldest dropped beyond UNDO_BYTES); no redo after a new edit."""
         self.undo_stack.append(text)
+        self.undo_bytes += sys.getsizeof(text)
+        while self.undo_bytes > UNDO_BYTES and len(self.undo_stack) > 1:
+            self.undo_bytes -= sys.getsizeof(self.undo_stack.pop(0))
         self.redo_stack.clear()
 
     def accept(self, text, block=None):
@@ -240,6 +244,7 @@ class StudioSession:
         patch = self.accept(text)
         source.pop()
         target.append(current)
+        self.undo_bytes += sys.getsizeof(current) if not back else -sys.getsizeof(text)
         self.commit(text, patch, "undo" if back else "redo")
         return {"undo": len(self.undo_stack), "redo": len(self.redo_stack)}
 

@@ -8,6 +8,7 @@ import pytest
 
 from browser_env import artifacts, browser_or_skip, chromium, open_page, send, until
 from project_env import ROOT
+from hapticgraph.studio.server import MAX_MESSAGE
 from studio_proc import Studio
 
 
@@ -38,8 +39,8 @@ def test_reconnect_download_while_gone_and_recover_on_the_next_start(sheet_patch
             edited = send(driver, {"cmd": "state"})["result"]["text"]
             assert driver.find_element("css selector", "#save").text == "Save… *"
 
-            # a dropped socket: the page opens it again by itself
-            driver.execute_script("window.studio.link.ws.close()")
+            # a dropped socket (the server closes it on a message over its limit): the page reconnects
+            driver.execute_script("window.studio.link.ws.send('x'.repeat(arguments[0]))", MAX_MESSAGE + 1)
             until(lambda: driver.execute_script("return window.studio.link.opened") == 2, 30,
                   "the page did not open the connection again")
             until(lambda: not _shown(driver, "#offline"), 30, "the page still says it is disconnected")

@@ -13,6 +13,7 @@ import os
 import re
 import shutil
 import signal
+import sys
 import warnings
 
 import pytest
@@ -24,6 +25,7 @@ with warnings.catch_warnings():
 from project_env import ROOT
 from hapticgraph.studio.commands import View, handle
 from hapticgraph.studio.server import build_app
+from hapticgraph.studio import session as session_module
 from hapticgraph.studio.session import StudioSession
 from studio_proc import Script, Studio, hello, next_event
 
@@ -225,3 +227,19 @@ def test_a_spoilt_recovery_file_is_not_offered(sheet, session, spoil, why):
     assert st.offer is None
     assert len(notes) == 1 and notes[0].startswith(f"{kept}: not offered: ") and why in notes[0], notes
 
+
+def test_the_undo_history_is_bounded_and_counts_what_it_holds(sheet, session, monkeypatch):
+    st = session()
+    size = sys.getsizeof(st.text)
+    monkeypatch.setattr(session_module, "UNDO_BYTES", 5 * size + size // 2)       # room for five texts
+    for i in range(8):
+        run(st, "set", block="mic1", param="gain", value=1.0 + i / 10)
+    assert len(st.undo_stack) == 5                                     # the oldest three dropped
+    for _ in range(5):
+        run(st, "undo")
+    for _ in range(2):
+        run(st, "redo")
+    for i in range(3):                                                 # undo and redo kept the count right
+        run(st, "set", block="mic1", param="gain", value=3.0 + i / 10)
+    assert len(st.undo_stack) == 5 and not st.redo_stack
+    assert st.undo_bytes == sum(sys.getsizeof(t) for t in st.undo_stack)
