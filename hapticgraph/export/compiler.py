@@ -1,12 +1,13 @@
-"""The system's C compiler, as an export builds with it: `$CC` (default `cc`), C99, -O2, and
+"""The system's C compiler, as an export builds with it: `$CC` (default `cc`), C99, -O2,
 `-ffp-contract=off` so that no multiply-add is fused (the kernel's arithmetic rounds as numba's
-does, operation by operation)."""
+does, operation by operation), and `-fno-math-errno`: the same numbers, but a `sin` of a value
+that does not change in the loop may be computed once, as numba's LLVM computes it."""
 import os
 import shlex
 import shutil
 import subprocess
 
-FLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
+FLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-fno-math-errno")
 
 
 class ExportError(Exception):
