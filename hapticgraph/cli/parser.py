@@ -288,7 +288,8 @@ def _add_export(sub):
                       "Lower the patch's program (the IR its kernel is compiled from) to plain C99 "
                       "(NAME.h, NAME.c: NAME_new(rate), NAME_process, NAME_set, tables of ports and "
                       "parameters), built into an LV2 bundle or a WebAssembly module with an AudioWorklet "
-                      "wrapper. Its output equals `hapticgraph run`'s. A block whose meaning calls Python "
+                      "wrapper. Its output equals `hapticgraph run`'s (WebAssembly: within the 1-ulp differences "
+                      "of its libm, docs/export.md). A block whose meaning calls Python "
                       "is refused at its FILE:LINE (exit 2).",
                       ["hapticgraph export patches/karplus_strong.yaml --to c --out build/ks",
                        "hapticgraph export patches/karplus_strong.yaml --to lv2 --out build --install",
