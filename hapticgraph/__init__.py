@@ -10,8 +10,7 @@ The names are imported when first used (PEP 562), so `import hapticgraph` and th
 `--help`, `check` and `graph` start without numba, scipy or sounddevice.
 """
 import importlib
-import importlib.abc
-import importlib.util
+import importlib.machinery
 import os
 import sys
 import warnings
@@ -65,9 +64,11 @@ MOVED = {
 }
 
 
-class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+class _Alias:
     """Imports `hapticgraph.NAME`, for a NAME of PUBLIC_MODULES or MOVED, as the very module it now
-    is (one module object under both names; MOVED ones with a DeprecationWarning)."""
+    is (one module object under both names; MOVED ones with a DeprecationWarning). A meta path
+    finder and its own loader (importlib's protocol; importlib.abc is not imported for it: it
+    brings importlib.resources and pathlib into every start)."""
 
     def __init__(self):
         self.specs = {}         # alias -> the spec of the module it names, while it is imported
@@ -75,7 +76,7 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     def find_spec(self, fullname, path=None, target=None):
         name = fullname.partition("hapticgraph.")[2]
         if fullname.startswith("hapticgraph.") and (name in PUBLIC_MODULES or name in MOVED):
-            return importlib.util.spec_from_loader(fullname, self)
+            return importlib.machinery.ModuleSpec(fullname, self)
         return None
 
     def create_module(self, spec):
@@ -83,21 +84,13 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         target = PUBLIC_MODULES.get(name) or MOVED[name]
         if name in MOVED:
             warnings.warn(f"{spec.name} is now {target}; the old name goes in the next release",
-                          DeprecationWarning, stacklevel=_importer_level())
+                          DeprecationWarning, stacklevel=2)   # warnings skips importlib's frames
         real = importlib.import_module(target)
         self.specs[spec.name] = real.__spec__    # the import system sets the alias's spec on it next
         return real
 
     def exec_module(self, module):
         module.__spec__ = self.specs.pop(module.__spec__.name)     # the module keeps its own spec
-
-
-def _importer_level():
-    """The stack level of the code whose import statement is running (past importlib's frames)."""
-    frame, level = sys._getframe(2), 2
-    while frame is not None and frame.f_code.co_filename.startswith("<frozen importlib"):
-        frame, level = frame.f_back, level + 1
-    return level
 
 
 sys.meta_path.append(_Alias())
