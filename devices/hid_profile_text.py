@@ -91,6 +91,23 @@ def profile_text(desc, source, title="", ids=None, name=None):
               f"  interval: {DEFAULT_INTERVAL}       # s: the descriptor does not say; USB full speed polls at 125 Hz"]
     if position is not None:
         lines += ["  position: x_axis      # the haptic block's x", "  velocity: estimate", "  velocity_cutoff: 20"]
+    lines += _axis_lines(axes)
+    if buttons:
+        lines.append("  buttons:")
+    for i in buttons:
+        byte, bit = divmod(i.bit_offset, 8)
+        lines.append(f"    {_name(i)}: {{byte: {byte}, bit: {bit}}}   # {page_name(i.usage_page)} 0x{i.usage:02x}")
+    left = [i for i in desc.inputs if i.report_id != rid or i.array_value is not None]
+    if left:
+        lines.append("# Not in this profile (a profile reads one report and has no arrays): "
+                     + _listed(left))
+    lines += _force_lines(desc)
+    return "\n".join(lines) + "\n"
+
+
+def _axis_lines(axes):
+    """The profile's `axes:` lines, each with what it reads."""
+    lines = []
     if axes:
         lines.append("  axes:")
     for i in axes:
@@ -107,15 +124,12 @@ def profile_text(desc, source, title="", ids=None, name=None):
                 parts.append("relative: true")
                 what += " (a change: the profile sums it)"
         lines.append(f"    {_name(i)}: {{{', '.join(parts)}}}   # {what}")
-    if buttons:
-        lines.append("  buttons:")
-    for i in buttons:
-        byte, bit = divmod(i.bit_offset, 8)
-        lines.append(f"    {_name(i)}: {{byte: {byte}, bit: {bit}}}   # {page_name(i.usage_page)} 0x{i.usage:02x}")
-    left = [i for i in desc.inputs if i.report_id != rid or i.array_value is not None]
-    if left:
-        lines.append("# Not in this profile (a profile reads one report and has no arrays): "
-                     + _listed(left))
+    return lines
+
+
+def _force_lines(desc):
+    """Comment lines on the device's HID PID force reports (a profile cannot drive them)."""
+    lines = []
     forces = [o for o in desc.outputs if o.usage_page == 0x0F]
     if forces:
         magnitude = next((o for o in forces if o.name == "constant_force_magnitude"), None)
@@ -132,7 +146,7 @@ def profile_text(desc, source, title="", ids=None, name=None):
                       f"#   force: {{byte: {byte}, size: {magnitude.bit_size}"
                       f"{', signed: true' if magnitude.logical_min < 0 else ''}, scale: {magnitude.logical_max}}}"
                       f"   # counts per newton if full scale were 1 N: set it from the device's rating"]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _listed(items):

@@ -103,24 +103,9 @@ def load_recording(path):
         elif key == "N" and not name:
             name = rest
         elif key == "I":
-            parts = rest.split()
-            try:
-                ids = tuple(int(p, 16) for p in parts[:3])
-            except ValueError:
-                ids = ()
-            if len(ids) != 3:
-                raise RecordingError(f"{path}:{number}: I: expected `BUS VENDOR PRODUCT` in hex")
+            ids = _ids(rest, path, number)
         elif key == "E":
-            t, _, data = rest.partition(" ")
-            try:
-                stamp = float(t)
-            except ValueError:
-                raise RecordingError(f"{path}:{number}: E: {t!r} is not a time in seconds") from None
-            report = _counted(data, path, number, "E")
-            if events and stamp < events[-1][0]:
-                raise RecordingError(f"{path}:{number}: E: the time {stamp:g} s goes back "
-                                     f"(the report before is at {events[-1][0]:g} s)")
-            events.append((stamp, report))
+            events.append(_event(rest, path, number, events[-1][0] if events else None))
         elif key not in ("N", "P", "I", "R", "S"):
             raise RecordingError(f"{path}:{number}: {line[:20]!r} is not a line of a hid-recorder recording "
                                  f"(D:, R:, N:, P:, I:, E:)")
@@ -130,6 +115,31 @@ def load_recording(path):
         t0 = events[0][0]
         events = [(t - t0, data) for t, data in events]
     return Recording(path, name, ids[0], ids[1], ids[2], descriptor, tuple(events))
+
+
+def _ids(rest, path, number):
+    """(bus, vendor, product) of an `I:` line."""
+    try:
+        ids = tuple(int(p, 16) for p in rest.split()[:3])
+    except ValueError:
+        ids = ()
+    if len(ids) != 3:
+        raise RecordingError(f"{path}:{number}: I: expected `BUS VENDOR PRODUCT` in hex")
+    return ids
+
+
+def _event(rest, path, number, last):
+    """(time, report bytes) of an `E:` line; `last`: the time of the event before, or None."""
+    t, _, data = rest.partition(" ")
+    try:
+        stamp = float(t)
+    except ValueError:
+        raise RecordingError(f"{path}:{number}: E: {t!r} is not a time in seconds") from None
+    report = _counted(data, path, number, "E")
+    if last is not None and stamp < last:
+        raise RecordingError(f"{path}:{number}: E: the time {stamp:g} s goes back "
+                             f"(the report before is at {last:g} s)")
+    return stamp, report
 
 
 def read_descriptor(path):

@@ -94,7 +94,7 @@ def check_controls(doc, registry, problems):
     blocks, devices = doc.get("blocks"), doc.get("devices")
     devices = devices if isinstance(devices, dict) else {}
     for name, spec in (blocks.items() if isinstance(blocks, LDict) else ()):
-        cls = registry.types.get(spec.get("type")) if isinstance(spec, LDict) else None
+        cls = registry.lookup(spec.get("type")) if isinstance(spec, LDict) else None
         for pname, param in (cls.params.items() if cls is not None else ()):
             if param.refers != "controller":
                 continue
@@ -148,7 +148,7 @@ def _target(entry, line, doc, registry, problems):
     if not isinstance(spec, dict):
         problems.add(line, f"{where}: no block named {block!r} under blocks:")
         return None
-    cls = registry.types.get(spec.get("type"))
+    cls = registry.lookup(spec.get("type"))
     if cls is None:
         return None           # an unknown type, reported with the block
     param = cls.params.get(pname)

@@ -76,7 +76,7 @@ def describe(err, path, doc, registry):
             rest = "".join(f"[{s}]" if isinstance(s, int) else f".{s}" for s in path[3:])
             if rest:
                 what += f" {rest.lstrip('.')}"
-            cls = registry.types.get(kind)
+            cls = registry.lookup(kind)
             unit = cls.params[path[2]].unit if cls and path[2] in cls.params else ""
     elif path and path[0] == "connect":
         what = f"connection {err.instance!r}" if isinstance(err.instance, str) else "connect"

@@ -155,7 +155,7 @@ def _apply_overrides(doc, overrides, registry, problems):
             continue
         entry = blocks[block]
         line = blocks.lines.get(block, entry.line)
-        cls = registry.types.get(entry.get("type"))
+        cls = registry.lookup(entry.get("type"))
         if cls is not None and param != "type":
             public = [n for n, p in cls.params.items() if not p.internal]
             if param not in public:
@@ -176,7 +176,7 @@ def _bare_set(text, block, blocks, registry):
     names a block without one, else the block names with a did-you-mean."""
     have = list(blocks) if isinstance(blocks, LDict) else []
     entry = blocks.get(block) if isinstance(blocks, LDict) else None
-    cls = registry.types.get(entry.get("type")) if isinstance(entry, LDict) else None
+    cls = registry.lookup(entry.get("type")) if isinstance(entry, LDict) else None
     if cls is not None:
         public = [n for n, p in cls.params.items() if not p.internal]
         return (blocks.lines.get(block, entry.line),
@@ -204,9 +204,9 @@ def _instances(doc, registry, rate, problems, checked):
     for index, (name, spec) in enumerate(blocks.items()):
         if problems.full:
             break
-        if not isinstance(spec, LDict) or spec.get("type") not in registry.types:
+        cls = registry.lookup(spec.get("type")) if isinstance(spec, LDict) else None
+        if cls is None:
             continue
-        cls = registry.types[spec["type"]]
         values = cls.default_params()
         ok = True
         seen = checked.get(id(spec), (None, {}))[1]

@@ -90,6 +90,11 @@ class Registry:
                     print(f"hapticgraph: warning: plugin entry point {ep.name!r} failed to load: "
                           f"{type(exc).__name__}: {exc}", file=sys.stderr)
 
+    def lookup(self, kind):
+        """The block type a patch's `type:` value names, or None (unknown, or not text at all: a
+        patch may say `type: []`)."""
+        return self.types.get(kind) if isinstance(kind, str) else None
+
     def add(self, types, origin):
         for cls in types:
             known = self.types.get(cls.type_name)

@@ -46,6 +46,10 @@ def _check_types(doc, registry, problems):
             if kind is None:
                 problems.add(line, f"block {name!r}: no `type` (one of: {', '.join(sorted(registry.types))})")
                 skip_blocks.add(name)
+            elif not isinstance(kind, str):
+                problems.add(spec.lines.get("type", line),
+                             f"block {name!r}: `type` must be a block type's name (text), not {kind!r:.40}")
+                skip_blocks.add(name)
             elif kind not in registry.types:
                 problems.add(spec.lines.get("type", line),
                              f"block {name!r}: unknown type {kind!r}{suggest(str(kind), registry.types)}")

@@ -112,7 +112,7 @@ def _read(doc, registry, problems):
 def _numbered(spec, k, count, registry):
     """A copy of a template block for voice k (1 … count): its voice parameters set."""
     copy = _copy(spec, LDict)
-    cls = registry.types.get(spec.get("type")) if isinstance(spec, LDict) else None
+    cls = registry.lookup(spec.get("type")) if isinstance(spec, LDict) else None
     for pname, param in (cls.params.items() if cls is not None else ()):
         value = {"voice": k, "voices": count}.get(param.refers)
         if value is not None:

@@ -75,6 +75,8 @@ def _check(path):
 
 @settings(max_examples=int(__import__("os").environ.get("FUZZ_EXAMPLES", "300")), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(doc=documents())
+@example(doc={"hapticgraph": 1, "rate": 44100, "connect": [],      # a type that is a list (unhashable)
+              "blocks": {"b": {"type": "audio_in"}, "f": {"type": [], "length": None}}})
 def test_damaged_documents(doc, tmp_path):
     path = tmp_path / "fuzz.yaml"
     path.write_text(yaml.safe_dump(doc, allow_unicode=True))
