@@ -57,7 +57,7 @@ HID_PARSER = {
 }
 
 
-def _walk(data):
+def _walk(data, arrays=None):
     """Input variable, non-constant fields as (rid, bit_offset, page, usage, size, lmin, lmax)."""
     g = dict(page=0, lmin=0, lmax=0, size=0, count=0, rid=0)
     stack, usages, umin, offsets, out = [], [], None, {}, []
@@ -107,6 +107,8 @@ def _walk(data):
                         if us:
                             out.append((rid, off + k * g["size"], us >> 16, us & 0xFFFF, g["size"],
                                         g["lmin"], g["lmax"]))
+                elif tag == 8 and not u & 1 and arrays is not None:   # array data input
+                    arrays.append((rid, off, g["size"], g["count"], g["lmin"], list(usages)))
                 offsets[(tag, rid)] = off + g["size"] * g["count"]
             usages, umin = [], None
     return sorted(out)
@@ -190,7 +192,25 @@ def test_recorded_reports_decode_to_the_walks_bits(name):
                 n = f[6] - f[5] + 1
                 want = (raw - f[5]) * 360.0 / n if f[5] <= raw <= f[6] else math.nan
                 assert out[col] == pytest.approx(want, nan_ok=True), (i.name, raw)
-            elif not i.relative:
+            else:
                 assert out[col] == pytest.approx(_axis_value(i, raw)), (i.name, raw)
             checked += 1
     assert checked > 0
+
+
+@pytest.mark.parametrize("name", FILES)
+def test_array_inputs_agree_with_the_walk(name, capsys):
+    """Each usage of an array field (at most 256 usages, hid_descriptor.MAX_ARRAY_BUTTONS; usage 0 of
+    the Button and Keyboard pages is "nothing") is one input: its slot value lmin + k."""
+    data, _ = read_descriptor(DATA / name)
+    assert main(["hid", "describe", str(DATA / name), "--json"]) == 0
+    ours = sorted((i["report_id"], i["bit_offset"], i["bit_size"], i["array_count"], i["array_value"],
+                   i["usage_page"], i["usage"]) for i in json.loads(capsys.readouterr().out) if "array_value" in i)
+    arrays = []
+    _walk(data, arrays)
+    want = sorted((rid, off, size, count, lmin + k, us >> 16, us & 0xFFFF)
+                  for rid, off, size, count, lmin, usages in arrays if len(usages) <= 256
+                  for k, us in enumerate(usages) if not (us & 0xFFFF == 0 and us >> 16 in (7, 9)))
+    assert ours == want
+    if name == "logitech_receiver_consumer_046d_c52f.rdesc":
+        assert [len(a[5]) for a in arrays] == [652] and ours == []
