@@ -31,6 +31,7 @@ FILES = sorted(p.name for p in DATA.iterdir() if p.suffix in (".rdesc", ".hid"))
 # file -> None (hid-parser agrees field for field) or what hid-parser gets wrong on it
 COUNT = "Report Count larger than its usages: hid-parser keeps one field per usage, drops the rest"
 SIGNED = "Logical Maximum read signed although the minimum is not negative (0xFF -> -1)"
+ZERO = "a 0-byte Logical Minimum (0x14) is read as None, not 0"
 HID_PARSER = {
     "3dconnexion_spacenavigator_046d_c626.rdesc": None,
     "logitech_momo_force_046d_c295.rdesc": None,
@@ -39,12 +40,13 @@ HID_PARSER = {
     "asus_gamepad_18d1_2c40.rdesc": COUNT,
     "frtec_raptor_mach2_11c0_5606.rdesc": COUNT + " (128 buttons, 29 usages: every later offset shifts)",
     "genius_gila_mouse_0458_0138.hid": COUNT,
-    "ion_icade_15e4_0132.hid": "fields hid-parser lists that are not ours/the walk's (array count/offset)",
-    "logitech_driving_force_046d_c294.rdesc": COUNT + "; " + SIGNED,
-    "logitech_driving_force_pro_046d_c298.rdesc": SIGNED,
+    "ion_icade_15e4_0132.hid": ("Report Count smaller than its usages (report 0xFF: count 1, size 2, usages 0x24...0x26 of page 6): "
+                                "hid-parser makes 3 fields, the 2 extra at bits 2 and 4 (constant padding)"),
+    "logitech_driving_force_046d_c294.rdesc": COUNT + "; " + ZERO,
+    "logitech_driving_force_pro_046d_c298.rdesc": ZERO,
     "logitech_formula_vibration_046d_ca04.rdesc": COUNT,
     "logitech_momo_racing_046d_ca03.rdesc": COUNT,
-    "microsoft_xbox_controller_045e_02ff.rdesc": SIGNED + " (16-bit axes 0...65535 -> -1)",
+    "microsoft_xbox_controller_045e_02ff.rdesc": SIGNED + " (16-bit axes with a 1-byte 0xFF maximum: 255 by the kernel's rule, -1 there)",
     "sony_ps3_bd_remote_054c_0306.rdesc": "raises InvalidReportDescriptor: a 0-byte Usage Minimum (value 0) "
                                           "is read as no minimum",
     "sony_ps3_controller_054c_0268.hid": COUNT,
