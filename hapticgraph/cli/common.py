@@ -34,7 +34,8 @@ class Interrupt:
     interpreter's own ending (joining threads, collecting garbage) is never interrupted and can
     print no "Exception ignored". A KeyboardInterrupt raised where no exception can leave (a
     weakref callback, a `__del__`: Python would print "Exception ignored" and drop it) is dropped
-    silently and the signal sent again a moment later (AGAIN_SECONDS), to be raised elsewhere.
+    silently and the signal sent again a moment later (AGAIN_SECONDS), to be raised elsewhere;
+    any other exception a `__del__` raises once a signal came is dropped too.
     Signals reach the main thread only: elsewhere `take` does nothing; a signal ignored by whoever
     started the process (`hapticgraph run … &` in a script) stays ignored."""
 
@@ -67,6 +68,10 @@ class Interrupt:
             sys.unraisablehook, self._hook = self._hook, None
 
     def _unraisable(self, unraisable):
+        if self.signum is not None and not issubclass(unraisable.exc_type, KeyboardInterrupt):
+            # after an interrupt, an object it left half-made complains as it is dropped (llvmlite's
+            # __del__ of a pass-manager option interrupted in its __init__): not news to the user
+            return
         if not (issubclass(unraisable.exc_type, KeyboardInterrupt) and self.raised and self._previous):
             self._hook(unraisable)
             return
