@@ -64,7 +64,9 @@ class DescribedDevice:
         return DescriptorDecoder(self)
 
 
-def _axis_value(i, raw):
+def axis_value(i, raw):
+    """An input field's raw count as players expect it (centred axes −1…1, pedals 0…1, units when
+    the descriptor gives them)."""
     lo, hi = i.logical_min, i.logical_max
     if hi == lo:
         return float(raw)
@@ -136,7 +138,7 @@ class DescriptorDecoder:
             elif i.kind == "hat":
                 self._hat(i, raw, cols)
             else:
-                row[cols[0]] = _axis_value(i, raw)
+                row[cols[0]] = axis_value(i, raw)
         x = row[0]
         raw_v = 0.0 if self.x_prev is None else (x - self.x_prev) / self.interval
         self.v += self.alpha * (raw_v - self.v)
@@ -176,4 +178,4 @@ class DescriptorDecoder:
         return True
 
 
-__all__ = ["DEFAULT_INTERVAL", "DescribedDevice", "DescriptorDecoder", "Timing"]
+__all__ = ["DEFAULT_INTERVAL", "DescribedDevice", "DescriptorDecoder", "Timing", "axis_value"]

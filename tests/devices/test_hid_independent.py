@@ -22,7 +22,7 @@ import pytest
 
 from hapticgraph.cli import main
 from hapticgraph.devices.hid_descriptor import parse
-from hapticgraph.devices.hid_layout import DescribedDevice, _axis_value
+from hapticgraph.devices.hid_layout import DescribedDevice, axis_value
 from hapticgraph.devices.hid_recording import load_recording, read_descriptor
 
 DATA = pathlib.Path(__file__).parent.parent / "data" / "hid"
@@ -195,7 +195,7 @@ def test_recorded_reports_decode_to_the_walks_bits(name):
                 want = (raw - f[5]) * 360.0 / n if f[5] <= raw <= f[6] else math.nan
                 assert out[col] == pytest.approx(want, nan_ok=True), (i.name, raw)
             else:
-                assert out[col] == pytest.approx(_axis_value(i, raw)), (i.name, raw)
+                assert out[col] == pytest.approx(axis_value(i, raw)), (i.name, raw)
             checked += 1
     assert checked > 0
 

@@ -40,7 +40,7 @@ def _device_probes(patch, lowered):
     return probes
 
 
-def _python_run(path, lowered, seconds, block):
+def python_run(path, lowered, seconds, block):
     patch = hapticgraph.load(path)
     probes = _device_probes(patch, lowered)
     # not editable: a lattice runs its stencil, as `hapticgraph run` does (editable: the general path)
@@ -66,7 +66,7 @@ def test_waveguide_patch_in_c_and_wasm_gives_the_bits_of_the_python_run(name, c_
     module = wasm_export(path)
     lowered = built.lowered
     block = 950
-    audio, forces, inputs, rate = _python_run(path, lowered, 1.0, block)
+    audio, forces, inputs, rate = python_run(path, lowered, 1.0, block)
     got = built.run(rate, len(audio), block=block, inputs=inputs)
     channels = audio.shape[1]
     assert np.abs(audio).max() > 0.0                      # it sounds

@@ -19,7 +19,7 @@ from hapticgraph.cli.main import main
 from hapticgraph.export.wasm import API
 from hapticgraph.graph.c import export_c
 from project_env import ROOT
-from test_c_waveguides import LATTICES, LIBM_DRIFT, WASM_DRIFT, WAVEGUIDES, _python_run
+from test_c_waveguides import LATTICES, LIBM_DRIFT, WASM_DRIFT, WAVEGUIDES, python_run
 
 KS = ROOT / "patches" / "karplus_strong.yaml"
 FIG8 = ROOT / "patches" / "fig8_pluck_damp.yaml"
@@ -147,7 +147,7 @@ def test_karplus_strong_in_the_worklet_gives_the_bits_of_render(tmp_path, same_b
 def test_fig8_in_the_worklet_takes_its_finger_by_message_and_sends_its_force(tmp_path, wasm_export, same_bits):
     assert main(["export", str(FIG8), "--to", "wasm", "--out", str(tmp_path / "fig8")]) == 0
     built = wasm_export(FIG8)
-    audio, forces, inputs, rate = _python_run(FIG8, built.lowered, 0.5, 950)
+    audio, forces, inputs, rate = python_run(FIG8, built.lowered, 0.5, 950)
     channels = audio.shape[1]
     records, played, _ = _render_in_chromium(tmp_path / "fig8", tmp_path, len(audio), rate,
                                              len(built.lowered.outputs), channels, inputs=inputs)
@@ -165,7 +165,7 @@ def test_every_patch_in_the_worklet_gives_what_wasmtime_gives(name, tmp_path, wa
     assert main(["export", str(path), "--to", "wasm", "--out", str(tmp_path / name)]) == 0
     built = wasm_export(path)
     assert all(p.kind != "audio" for p in built.lowered.inputs)       # every input is a device's row
-    audio, forces, inputs, rate = _python_run(path, built.lowered, 0.5, 950)
+    audio, forces, inputs, rate = python_run(path, built.lowered, 0.5, 950)
     channels = audio.shape[1]
     records, played, _ = _render_in_chromium(tmp_path / name, tmp_path, len(audio), rate, len(built.lowered.outputs),
                                              channels, inputs=inputs if len(built.lowered.inputs) else None)
