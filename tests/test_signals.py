@@ -248,6 +248,44 @@ def test_a_command_interrupted_before_it_began_says_one_line(tmp_path):
     assert (proc.returncode, stdout, stderr) == (INTERRUPTED, "", "hapticgraph: interrupted\n")
 
 
+def test_a_sigint_the_moment_main_takes_it_says_one_line(tmp_path):
+    """The signal handler in place and the signal at once (here raised as `take` returns, in the
+    launcher's profile hook): caught by main like any other, not a traceback."""
+    code = ("import signal\n"
+            "from hapticgraph.cli.common import Interrupt\n"
+            "def take(self, *signums, _take=Interrupt.take):\n"
+            "    _take(self, *signums)\n"
+            "    signal.raise_signal(signal.SIGINT)\n"
+            "Interrupt.take = take\n")
+    proc, _ = _launch(["check", KARPLUS], _env(tmp_path / "kernels"), preamble=code)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert (proc.returncode, stdout, stderr) == (INTERRUPTED, "", "hapticgraph: interrupted\n")
+
+
+def test_a_sigint_inside_an_import_says_one_line(tmp_path):
+    """A KeyboardInterrupt raised while a C extension imports (numpy's, in the first moments of
+    `play`) comes out as that import's ImportError: still the interrupt, one line and 130. An
+    ImportError with no signal received stays an error with its traceback."""
+    code = ("import signal, time\n"
+            "from hapticgraph.graph import kernel\n"
+            "def set_notice(notice):\n"           # before the command runs: main's own lines
+            "    try:\n"
+            "        signal.raise_signal(signal.SIGINT)\n"
+            "        time.sleep(5)\n"
+            "    except KeyboardInterrupt as exc:\n"
+            "        raise ImportError('PyCapsule_Import could not import module \"datetime\"') from exc\n"
+            "kernel.set_notice = set_notice\n")
+    proc, _ = _launch(["check", KARPLUS], _env(tmp_path / "kernels"), preamble=code)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert (proc.returncode, stdout, stderr) == (INTERRUPTED, "", "hapticgraph: interrupted\n")
+    plain = ("import hapticgraph.cli.inspect as inspect\n"
+             "def cmd_check(args):\n    raise ImportError('no such module')\n"
+             "inspect.cmd_check = cmd_check\n")
+    proc, _ = _launch(["check", KARPLUS], _env(tmp_path / "kernels"), preamble=plain)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 1 and "ImportError: no such module" in stderr
+
+
 def test_a_sigint_in_a_finaliser_is_raised_after_it(tmp_path):
     """A signal handled inside a `__del__` (or a weakref callback) cannot raise there: Python
     would print `Exception ignored in: …` and drop the KeyboardInterrupt. It comes again, once

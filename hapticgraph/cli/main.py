@@ -68,10 +68,11 @@ def main(argv=None):
     """Run the command line `argv` (None: this process's, which then ends when main returns); its
     exit status."""
     interrupt = Interrupt()
-    interrupt.take(signal.SIGINT)
     if argv is None:
         atexit.register(interrupt.settle)     # first registered: run last
     try:
+        # taken inside the try: a signal the moment its handler is in place is caught below
+        interrupt.take(signal.SIGINT)
         code = _main(argv, argv is None, interrupt)
     except KeyboardInterrupt:        # raised once (Interrupt): nothing interrupts this
         print("hapticgraph: interrupted", file=sys.stderr)
@@ -80,6 +81,13 @@ def main(argv=None):
         if argv is not None:
             raise
         code = 0 if exc.code is None else exc.code
+    except Exception:
+        # the KeyboardInterrupt, raised inside an import of a C extension (numpy's, the first
+        # moments of `play`), came out as that import's ImportError: still the interrupt
+        if not interrupt.raised:
+            raise
+        print("hapticgraph: interrupted", file=sys.stderr)
+        code = interrupt.status()
     finally:
         if argv is not None:
             interrupt.give_back()
