@@ -108,8 +108,9 @@ def cmd_studio(args):
     if not args.no_browser:
         threading.Timer(0.3, webbrowser.open, (url,)).start()
     # uvicorn stops gracefully on SIGINT/SIGTERM, then raises the signal again under the handler
-    # found before it: a quiet one, so that the studio closes its sound and exits 0 (Ctrl-C is
-    # how a server is stopped, not a failure); the recovery file stays for the next studio
+    # found before it: a quiet one, so that the studio closes its sound and says one line; the
+    # status is a signal's (130 for Ctrl-C, 143 for SIGTERM) as for every command; the recovery
+    # file stays for the next studio
     previous = {sig: signal.signal(sig, _quiet) for sig in (signal.SIGINT, signal.SIGTERM)}
     stopped_by = None
     try:
@@ -120,4 +121,4 @@ def cmd_studio(args):
         studio.close()
         sock.close()
     print(_stopped(studio, stopped_by), file=sys.stderr, flush=True)
-    return 0
+    return 0 if stopped_by is None else 128 + stopped_by
