@@ -1,37 +1,48 @@
 // A scope (uPlot: drag to zoom, double-click to unzoom) and a scrolling spectrogram (linear or
-// log frequency) on any signal `--probe` accepts; both freeze. The last seconds of the probed
-// signal are kept for the modes panel's measured spectrum.
+// log frequency) on any signal `--probe` accepts; both freeze. Both count in the session's time
+// (the sample index each probe frame carries), as the header's `t` does. The last seconds of the
+// probed signal are kept for the modes panel's measured spectrum.
 import uPlot from "./vendor/uplot/uPlot.esm.js";
-import { $, el, fmt } from "./dom.js";
+import { $, el } from "./dom.js";
 import { spectrumDb } from "./fft.js";
+import { AXIS_FONT, label } from "./axis.js";
+import { Spectrogram } from "./spectrogram.js";
 
 const KEEP_S = 4;           // seconds of signal kept
 const POINTS = 1500;        // the scope draws at most this many min/max pairs
-const HOP = 512, NFFT = 4096, RANGE_DB = 70, PEAK_FALL_DB = 0.5;   // per column: the top of the scale falls slowly
+const TICK = 10, GAP = 5, SLACK = 6;   // uPlot's tick length and label gap; room to spare [px]
 
-// dark blue - purple - orange - pale yellow
-function heat(v) {
-  return [Math.round(255 * Math.min(1, 1.6 * v)), Math.round(255 * Math.max(0, 1.4 * v - 0.4)), Math.round(60 + 120 * Math.sin(Math.PI * Math.min(1, v * 1.2))), 255];
+// the room a value axis needs for its widest label (uPlot otherwise clips what does not fit)
+function axisSize(u, values) {
+  const g = axisSize.g || (axisSize.g = document.createElement("canvas").getContext("2d"));
+  g.font = AXIS_FONT;
+  const widest = Math.max(0, ...(values || []).map((s) => g.measureText(s).width));
+  return Math.ceil(widest) + TICK + GAP + SLACK;
 }
 
 export class Scopes {
   constructor(ctx) {
     this.ctx = ctx;
+    ctx.studio.scopes = this;   // the scripting door (tests read the axes)
     this.rate = 44100;
     this.buf = new Float32Array(KEEP_S * this.rate);
     this.len = 0;               // samples in buf
-    this.total = 0;             // samples received since the probe started
-    this.lastColumn = 0;
+    this.end = 0;               // the session's sample index just after buf's last sample
     this.probeId = null;
     this.signal = null;
+    this.labels = { x: [], y: [] };
+    const keep = (axis) => (u, ticks) => (this.labels[axis] = ticks.map(label));
     this.plot = new uPlot({ width: 520, height: 200, scales: { x: { time: false } },
-      series: [{ label: "t [s]" }, { label: "value", stroke: "#3388ff", width: 1 }], axes: [{ stroke: "#aaa" }, { stroke: "#aaa", size: 70, values: (u, ticks) => ticks.map(fmt) }] },
+      series: [{ label: "t [s]" }, { label: "value", stroke: "#3388ff", width: 1 }],
+      axes: [{ stroke: "#aaa", font: AXIS_FONT, values: keep("x"), label: "session time t [s]", labelSize: 18, labelFont: AXIS_FONT },
+        { stroke: "#aaa", font: AXIS_FONT, values: keep("y"), size: axisSize }] },
     [[0], [0]], $("#scope"));
+    this.spectrogram = new Spectrogram($("#spectrogram"));
     ctx.link.on("probe", (f) => { if (f.id === this.probeId) this._take(f); });
     $("#probe-go").onclick = () => this.probe($("#probe-signal").value);
     $("#probe-signal").addEventListener("keydown", (e) => { if (e.key === "Enter") this.probe(e.target.value); });
-    this.spec = $("#spectrogram").getContext("2d");
-    setInterval(() => this._drawScope(), 50);
+    for (const id of ["#spec-log", "#spec-top"]) $(id).addEventListener("change", () => this.spectrogram.draw(this._specOptions()));
+    setInterval(() => this._draw(), 50);
   }
 
   update(desc) {
@@ -60,7 +71,8 @@ export class Scopes {
     this.signal = signal;
     $("#probe-signal").value = signal;
     if (r.result.rate !== this.rate) { this.rate = r.result.rate; this.buf = new Float32Array(KEEP_S * this.rate); }
-    this.len = 0; this.total = 0; this.lastColumn = 0; this.top = undefined;
+    this.len = 0;
+    this.spectrogram.reset(this.rate);
     return r;
   }
 
@@ -69,6 +81,8 @@ export class Scopes {
   _take(f) {
     if (this.frozen) return;
     const d = f.data, cap = this.buf.length;
+    // a gap in the sample index (frames the server dropped) starts the kept signal again
+    if (this.len && f.sample !== this.end) this.len = 0;
     if (this.len + d.length > cap) {
       const drop = this.len + d.length - cap;
       this.buf.copyWithin(0, drop, this.len);
@@ -76,18 +90,21 @@ export class Scopes {
     }
     this.buf.set(d, this.len);
     this.len += d.length;
-    this.total += d.length;
+    this.end = f.sample + d.length;
     const shown = !$("#tab-scope").hidden && !document.hidden;
-    while (this.total - this.lastColumn >= HOP) {
-      this.lastColumn += HOP;
-      if (shown) this._column(this.len - (this.total - this.lastColumn));
-    }
+    this.spectrogram.take(this.buf, this.len, this.end, shown);
   }
 
-  _drawScope() {
+  _specOptions() {
+    return { top: Math.min(Number($("#spec-top").value), this.rate / 2), log: $("#spec-log").checked };
+  }
+
+  _draw() {
     if (this.frozen || !this.len || document.hidden || $("#tab-scope").hidden) return;
+    const width = $("#scope").clientWidth;
+    if (width && width !== this.plot.width) this.plot.setSize({ width, height: 200 });
     const n = Math.min(this.len, Math.round(Number($("#scope-window").value) * this.rate));
-    const start = this.len - n, per = Math.max(1, Math.ceil(n / POINTS)), t0 = (this.total - n) / this.rate;
+    const start = this.len - n, per = Math.max(1, Math.ceil(n / POINTS)), t0 = (this.end - n) / this.rate;
     const xs = [], ys = [];
     for (let i = 0; i < n; i += per) {
       let lo = Infinity, hi = -Infinity;
@@ -96,27 +113,7 @@ export class Scopes {
       xs.push(t, t + per / (2 * this.rate)); ys.push(lo, hi);
     }
     this.plot.setData([xs, ys]);
-  }
-
-  // one column of the spectrogram, ending at sample `end` of buf
-  _column(end) {
-    const canvas = this.spec.canvas, w = canvas.width, h = canvas.height;
-    if (end < NFFT) return;
-    const db = spectrumDb(this.buf, end, NFFT);
-    this.spec.drawImage(canvas, -1, 0);
-    const top = Math.min(Number($("#spec-top").value), this.rate / 2), log = $("#spec-log").checked;
-    // one scale for the columns (a fading peak), so a decaying sound is seen to decay
-    let peak = -Infinity;
-    for (let k = 1; k < db.length; k++) peak = Math.max(peak, db[k]);
-    this.top = Math.max(peak, (this.top ?? peak) - PEAK_FALL_DB);
-    const img = this.spec.createImageData(1, h);
-    for (let y = 0; y < h; y++) {
-      const u = 1 - y / (h - 1);
-      const f = log ? 20 * (top / 20) ** u : u * top;
-      const v = Math.min(1, Math.max(0, (db[Math.min(db.length - 1, Math.round((f * NFFT) / this.rate))] - this.top + RANGE_DB) / RANGE_DB));
-      img.data.set(heat(v), 4 * y);
-    }
-    this.spec.putImageData(img, w - 1, 0);
+    this.spectrogram.draw(this._specOptions());
   }
 
   // the measured spectrum of the last `n` samples (for the modes panel): {hz per bin, db}

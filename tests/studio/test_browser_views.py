@@ -1,0 +1,105 @@
+"""The studio's views as a designer meets them (issue 33, item 4, the views half), in a real
+browser: the scope's and the spectrogram's axes (session time, Hz, dB, negative labels whole),
+the wiring graph's text size, the stage's legend and markers, the 3-D camera, and a waveguide
+patch drawn on the stage. `hapticgraph studio` on loopback, Debian's chromium through Selenium."""
+import contextlib
+import pathlib
+import shutil
+import time
+
+import pytest
+
+from browser_env import artifacts, browser_or_skip, chromium, open_page, send, until
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+PATCHES = ROOT / "patches"
+
+
+@contextlib.contextmanager
+def page(tmp_path, name, what):
+    """The studio on a copy of patches/NAME.yaml, and a browser on its page."""
+    from browser_env import studio
+
+    browser_or_skip()
+    patch = tmp_path / f"{name}.yaml"
+    shutil.copyfile(PATCHES / f"{name}.yaml", patch)
+    out = artifacts(tmp_path, what)
+    with studio(patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        yield driver
+        driver.save_screenshot(str(out / f"{what}.png"))
+
+
+def tab(driver, name):
+    driver.find_element("css selector", f"#tabs button[data-tab={name}]").click()
+
+
+def session_t(driver):
+    return until(lambda: driver.execute_script("return window.studio.status && window.studio.status.t"), 10,
+                 "no status event")
+
+
+def test_the_scope_counts_in_session_time(tmp_path):
+    with page(tmp_path, "cymatic_sheet", "scope_time") as driver:
+        until(lambda: session_t(driver) > 2.0, 30, "the session's t did not pass 2 s")
+        tab(driver, "scope")
+        until(lambda: driver.execute_script("return window.studio.scopes.len > 4410"), 30, "no probe data")
+        time.sleep(0.3)
+        t, shown = driver.execute_script(
+            "const u = window.studio.scopes.plot; return [window.studio.status.t, [u.data[0][0], u.data[0].at(-1)]]")
+    # the scope's last sample is the session's now (the status event comes twice a second or so),
+    # not the seconds since the probe started (which would be under 1 s here)
+    assert shown[1] > 2.0, shown
+    assert abs(shown[1] - t) < 1.0, (shown, t)
+    assert shown[0] < shown[1]
+
+
+def _ink_at_left(driver, selector):
+    """Columns 0-1 of a canvas: how many pixels are drawn (not the background)."""
+    return driver.execute_script(
+        "const c = document.querySelector(arguments[0]), g = c.getContext('2d');"
+        "const d = g.getImageData(0, 0, 2, c.height).data; let ink = 0;"
+        "for (let i = 0; i < d.length; i += 4) if (d[i] + d[i + 1] + d[i + 2] > 200) ink++;"
+        "return ink;", selector)
+
+
+def test_negative_axis_labels_keep_their_minus_sign(tmp_path):
+    with page(tmp_path, "cymatic_sheet", "scope_minus") as driver:
+        tab(driver, "scope")
+        until(lambda: driver.execute_script("return window.studio.scopes.len > 4410"), 30, "no probe data")
+        labels = until(lambda: driver.execute_script(
+            "const l = window.studio.scopes.labels.y; return l.some(s => /^[-−]/.test(s)) && l"), 30,
+            "no negative label on the scope's value axis")
+        ink = _ink_at_left(driver, "#scope canvas")
+    # a label drawn whole leaves the plot's left edge empty; a clipped one ("−1.000e-5" in an axis
+    # too narrow for it) starts left of the canvas and its ink touches column 0
+    assert ink == 0, (labels, ink)
+
+
+def test_the_spectrogram_fills_its_panel_with_axes_in_hz_s_and_db(tmp_path):
+    with page(tmp_path, "cymatic_sheet", "spectrogram") as driver:
+        tab(driver, "scope")
+        axes = until(lambda: driver.execute_script(
+            "const a = window.studio.scopes.spectrogram.axes; return a && a.columns >= 20 && a"), 30,
+            "no spectrogram columns")
+        t = session_t(driver)
+        sizes = driver.execute_script(
+            "const c = document.querySelector('#spectrogram'), p = document.querySelector('#tab-scope');"
+            "return [c.width, c.height, p.clientWidth];")
+        # the picture's first and last pixel columns (the plot's left and right edge, half-way up)
+        edges = driver.execute_script(
+            "const a = arguments[0].plot, g = document.querySelector('#spectrogram').getContext('2d');"
+            "const at = (x) => Array.from(g.getImageData(x, Math.round(a.y + a.h / 2), 1, 1).data.slice(0, 3));"
+            "return [at(a.x + 1), at(a.x + a.w - 2)];", axes)
+    width, height, panel = sizes
+    assert width >= panel - 20 and height >= 200, sizes                   # the whole panel, not 520 px
+    plot = axes["plot"]
+    assert plot["w"] >= 0.75 * width and plot["h"] >= 0.6 * height, (plot, sizes)
+    background = [0x10, 0x13, 0x17]
+    assert edges[0] != background and edges[1] != background, edges      # filled from edge to edge
+    assert {"100", "1k"} <= set(axes["freq"]), axes["freq"]              # log frequency, in Hz
+    times = [float(s.replace("−", "-")) for s in axes["time"]]
+    assert len(times) >= 2 and abs(max(axes["t"]) - t) < 1.5, (axes["t"], t)   # the session's time
+    assert all(axes["t"][0] <= v <= axes["t"][1] for v in times), (times, axes["t"])
+    db = [float(s.replace("−", "-")) for s in axes["db"]]
+    assert len(db) == 8 and db[0] - db[-1] == 70 and db == sorted(db, reverse=True), db   # the colour scale
