@@ -103,3 +103,18 @@ def test_the_spectrogram_fills_its_panel_with_axes_in_hz_s_and_db(tmp_path):
     assert all(axes["t"][0] <= v <= axes["t"][1] for v in times), (times, axes["t"])
     db = [float(s.replace("−", "-")) for s in axes["db"]]
     assert len(db) == 8 and db[0] - db[-1] == 70 and db == sorted(db, reverse=True), db   # the colour scale
+
+
+def test_the_wiring_graph_is_readable(tmp_path):
+    with page(tmp_path, "fig8_pluck_damp", "wiring") as driver:
+        tab(driver, "wiring")
+        sizes = until(lambda: driver.execute_script(
+            "return [...document.querySelectorAll('#wiring text')].map(t =>"
+            " [t.textContent, parseFloat(getComputedStyle(t).fontSize) * t.getScreenCTM().a,"
+            "  t.getBoundingClientRect().height, t.getComputedTextLength() * t.getScreenCTM().a,"
+            "  t.parentNode.querySelector('rect').getBoundingClientRect().width])"), 10, "no wiring drawn")
+    assert len(sizes) == 17, sizes                                 # fig8's blocks, one box each
+    # the text as drawn on the screen (its font size times the SVG's scale), not as declared
+    assert min(s[1] for s in sizes) >= 11, sizes
+    assert min(s[2] for s in sizes) >= 11, sizes
+    assert all(s[3] <= s[4] for s in sizes), [s for s in sizes if s[3] > s[4]]   # each name fits its box
