@@ -118,3 +118,70 @@ def test_the_wiring_graph_is_readable(tmp_path):
     assert min(s[1] for s in sizes) >= 11, sizes
     assert min(s[2] for s in sizes) >= 11, sizes
     assert all(s[3] <= s[4] for s in sizes), [s for s in sizes if s[3] > s[4]]   # each name fits its box
+
+
+FREE_REGION = """
+const v = window.studio.view, c = v.canvas.getBoundingClientRect();
+const bar = document.querySelector('#toolbar').getBoundingClientRect();
+const box = document.querySelector('#cell-edit').getBoundingClientRect();
+const cells = [];
+for (const p of v.parts) for (let f = 0; f < p.n; f++) { const s = v.screenOf(p.id, f); cells.push([s.x, s.y]); }
+return {canvas: [c.left, c.top, c.right, c.bottom], bar: bar.bottom, box: [box.left, box.top, box.right, box.bottom], cells};
+"""
+CAMERA = "const v = window.studio.view; return [v.camera.position.toArray(), v.controls.target.toArray()];"
+
+
+def _hidden_cells(seen, margin=4):
+    """The cells drawn outside the canvas, under the toolbar or under the selection box."""
+    left, top, right, bottom = seen["canvas"]
+    bl, bt, br, bb = seen["box"]
+    out = []
+    for x, y in seen["cells"]:
+        if not (left + margin <= x <= right - margin and max(top, seen["bar"]) + margin <= y <= bottom - margin):
+            out.append((x, y))
+        elif bl - margin <= x <= br + margin and bt - margin <= y <= bb + margin:
+            out.append((x, y))
+    return out
+
+
+def test_the_block_camera_shows_everything_keeps_the_users_view_and_zooms_to_the_cursor(tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+    from selenium.webdriver.support.ui import Select
+
+    with page(tmp_path, "cymatic_block", "camera") as driver:
+        time.sleep(0.5)
+        start = driver.execute_script(FREE_REGION)
+        framed = driver.execute_script(CAMERA)
+        canvas = driver.find_element("css selector", "#view")
+        # the designer turns the block (a drag) then picks a layer, the top view and the 3-D view again
+        ActionChains(driver).move_to_element_with_offset(canvas, 0, 0).click_and_hold().move_by_offset(80, 30) \
+            .release().perform()
+        turned = driver.execute_script(CAMERA)
+        Select(driver.find_element("css selector", "#layer")).select_by_index(3)
+        after_layer = driver.execute_script(CAMERA)
+        Select(driver.find_element("css selector", "#look")).select_by_value("top")
+        top_view = driver.execute_script(CAMERA)
+        Select(driver.find_element("css selector", "#look")).select_by_value("3d")
+        back = driver.execute_script(CAMERA)
+        # a wheel turned over a point off the centre: the point under the cursor stays there
+        x, y = 150, -90
+        driver.execute_script(
+            "const v = window.studio.view, r = v.canvas.getBoundingClientRect(), c = v.camera;"
+            "const p = c.position.clone().set(2 * (arguments[0] + r.width / 2) / r.width - 1,"
+            "  1 - 2 * (arguments[1] + r.height / 2) / r.height, 0.5).unproject(c);"
+            "window.aimed = p; window.before = c.position.distanceTo(v.controls.target);", x, y)
+        ActionChains(driver).scroll_from_origin(ScrollOrigin.from_element(canvas, x, y), 0, -300).perform()
+        time.sleep(0.3)
+        zoom = driver.execute_script(
+            "const v = window.studio.view, r = v.canvas.getBoundingClientRect(), q = window.aimed.clone().project(v.camera);"
+            "return [(q.x + 1) / 2 * r.width - r.width / 2, (1 - q.y) / 2 * r.height - r.height / 2,"
+            "        window.before, v.camera.position.distanceTo(v.controls.target)];")
+    hidden = _hidden_cells(start)
+    assert not hidden, f"{len(hidden)} of {len(start['cells'])} cells hidden at start, e.g. {hidden[:5]}"
+    assert turned != framed, turned                                      # the drag turned it
+    assert after_layer == turned, (turned, after_layer)
+    assert top_view[0][1] > 5 and abs(top_view[0][0] - top_view[1][0]) < 1e-3 < top_view[0][1], top_view
+    assert all(abs(a - b) < 1e-6 for a, b in zip(back[0] + back[1], turned[0] + turned[1])), (turned, back)
+    assert zoom[3] < 0.95 * zoom[2], zoom                              # it zoomed in
+    assert abs(zoom[0] - x) < 3 and abs(zoom[1] - y) < 3, zoom         # towards the cursor

@@ -7,6 +7,9 @@ import { Part } from "./part.js";
 import { SPACING } from "./layout.js";
 
 const GAP = 3 * SPACING;
+const MARGIN = 16;                   // px kept free around the framed parts
+const LABEL_ROOM = 28;               // px above them for the parts' names
+const MARKER_REACH = 1.5 * SPACING;  // a microphone's line stands this far above and below its cell
 
 function rendererName() {
   const gl = document.createElement("canvas").getContext("webgl2");
@@ -27,6 +30,8 @@ export class Instrument {
     this.camera = new THREE.PerspectiveCamera(45, 1, 0.1, 5000);
     this.controls = new OrbitControls(this.camera, canvas);
     this.controls.enableDamping = false;
+    this.controls.zoomToCursor = true;     // the wheel zooms toward the point under the cursor
+    this.cameras = {};        // by look ("3d", "top"): where the designer left the camera
     // a still picture is not drawn again: only new cells, a camera move or an edit redraw it
     this.dirty = true;
     this.controls.addEventListener("change", () => { this.dirty = true; });
@@ -59,42 +64,75 @@ export class Instrument {
     }
     this.parts.forEach((p) => { p.group.position.x -= (x - GAP) / 2; });
     this.scene.updateMatrixWorld();
+    this.cameras = {};        // another instrument: every look framed again
     this.frameAll();
     this.dirty = true;
   }
 
-  // "3d" (above-front) or "top" (straight down: rows and columns of a sheet line up with the screen)
+  // "3d" (above-front) or "top" (straight down: rows and columns of a sheet line up with the
+  // screen). Each look keeps the camera the designer left it at; a look not seen yet is framed.
   look(from) {
+    if (from === this.from) return;
+    this.cameras[this.from || "3d"] = this._camera();
     this.from = from;
-    this.frameAll();
+    const kept = this.cameras[from];
+    if (kept) {
+      this.camera.position.copy(kept.position);
+      this.controls.target.copy(kept.target);
+      this.controls.update();
+    } else this.frameAll();
     this.dirty = true;
   }
 
+  _camera() { return { position: this.camera.position.clone(), target: this.controls.target.clone() }; }
+
+  // The part of the canvas nothing covers: below the toolbar, and beside or above the selection
+  // box in its corner (whichever leaves the larger square), in canvas pixels with a margin.
+  _free() {
+    const c = this.canvas.getBoundingClientRect(), up = this.canvas.parentElement;
+    const bar = up.querySelector("#toolbar")?.getBoundingClientRect(), box = up.querySelector("#cell-edit")?.getBoundingClientRect();
+    const top = Math.max(0, (bar ? bar.bottom - c.top : 0)) + LABEL_ROOM, all = { left: MARGIN, right: c.width - MARGIN, top, bottom: c.height - MARGIN };
+    if (!box || !box.width) return all;
+    const beside = { ...all, left: box.right - c.left + MARGIN }, above = { ...all, bottom: box.top - c.top - MARGIN };
+    const side = (r) => Math.min(r.right - r.left, r.bottom - r.top);
+    return side(beside) >= side(above) ? beside : above;
+  }
+
+  // Every cell in the free part of the canvas, as large as fits: the camera from the look's
+  // direction, then moved sideways and along its axis until the projected box of the parts (and
+  // the room their markers take) fills the free rectangle.
   frameAll() {
     const box = new THREE.Box3();
     this.parts.forEach((p) => p && box.expandByObject(p.group));
     if (box.isEmpty()) return;
-    const c = box.getCenter(new THREE.Vector3()), s = box.getSize(new THREE.Vector3());
-    // from above-front, as far as the bounding sphere needs, then closer until the box's corners
-    // fill most of the view (a long string beside a plate would otherwise be drawn small)
+    box.expandByVector(new THREE.Vector3(0, MARKER_REACH, 0));
     this._resize();
+    const c = box.getCenter(new THREE.Vector3()), s = box.getSize(new THREE.Vector3());
+    const free = this._free(), w = this.w || 1, h = this.h || 1;
     const half = THREE.MathUtils.degToRad(this.camera.fov / 2);
-    const narrow = Math.min(half, Math.atan(Math.tan(half) * this.camera.aspect));
     const dir = this.from === "top" ? new THREE.Vector3(0, 1, 1e-4).normalize() : new THREE.Vector3(0.15, 0.75, 0.8).normalize();
-    let dist = 1.02 * Math.max(s.length() / 2, 2 * SPACING) / Math.sin(narrow);
-    for (let i = 0; i < 4; i++) {
-      this.camera.position.copy(c).addScaledVector(dir, dist);
-      this.camera.lookAt(c);
+    const target = c.clone(), right = new THREE.Vector3(), upv = new THREE.Vector3(), corner = new THREE.Vector3();
+    let dist = 1.02 * Math.max(s.length() / 2, 2 * SPACING) / Math.sin(half);
+    for (let i = 0; i < 8; i++) {
+      this.camera.position.copy(target).addScaledVector(dir, dist);
+      this.camera.lookAt(target);
       this.camera.updateMatrixWorld();
-      let reach = 0;
+      let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
       for (let k = 0; k < 8; k++) {
-        const p = new THREE.Vector3(k & 1 ? box.max.x : box.min.x, k & 2 ? box.max.y : box.min.y, k & 4 ? box.max.z : box.min.z).project(this.camera);
-        reach = Math.max(reach, Math.abs(p.x), Math.abs(p.y));
+        corner.set(k & 1 ? box.max.x : box.min.x, k & 2 ? box.max.y : box.min.y, k & 4 ? box.max.z : box.min.z).project(this.camera);
+        const px = (corner.x + 1) / 2 * w, py = (1 - corner.y) / 2 * h;
+        x0 = Math.min(x0, px); x1 = Math.max(x1, px); y0 = Math.min(y0, py); y1 = Math.max(y1, py);
       }
-      dist *= Math.max(0.5, Math.min(1.5, reach / 0.85));
+      const scale = Math.max((x1 - x0) / (free.right - free.left), (y1 - y0) / (free.bottom - free.top));
+      const perPx = 2 * dist * Math.tan(half) / h;          // world units per pixel at the target
+      right.setFromMatrixColumn(this.camera.matrixWorld, 0);
+      upv.setFromMatrixColumn(this.camera.matrixWorld, 1);
+      target.addScaledVector(right, -((free.left + free.right) / 2 - (x0 + x1) / 2) * perPx);
+      target.addScaledVector(upv, ((free.top + free.bottom) / 2 - (y0 + y1) / 2) * perPx);
+      dist *= Math.max(0.5, Math.min(2, scale));
     }
-    this.camera.position.copy(c).addScaledVector(dir, dist);
-    this.controls.target.copy(c);
+    this.camera.position.copy(target).addScaledVector(dir, dist);
+    this.controls.target.copy(target);
     this.controls.update();
   }
 
