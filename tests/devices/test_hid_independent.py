@@ -49,7 +49,9 @@ HID_PARSER = {
     "microsoft_xbox_controller_045e_02ff.rdesc": SIGNED + " (16-bit axes with a 1-byte 0xFF maximum: 255 by the kernel's rule, -1 there)",
     "sony_ps3_bd_remote_054c_0306.rdesc": "raises InvalidReportDescriptor: a 0-byte Usage Minimum (value 0) "
                                           "is read as no minimum",
+    "namtai_wbuzz_054c_1000.hid": COUNT + " (four vendor bits of one usage: one kept)",
     "sony_ps3_controller_054c_0268.hid": COUNT,
+    "sony_ps3_controller_054c_0268_stick.hid": COUNT,
     "sony_ps3_controller_054c_0268.rdesc": COUNT,
     "sony_ps4_controller_bt_054c_05c4.rdesc": COUNT + " (vendor blocks of one usage, count 70...)",
     "sony_ps4_controller_usb_054c_05c4.rdesc": COUNT,
