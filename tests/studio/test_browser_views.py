@@ -185,3 +185,54 @@ def test_the_block_camera_shows_everything_keeps_the_users_view_and_zooms_to_the
     assert all(abs(a - b) < 1e-6 for a, b in zip(back[0] + back[1], turned[0] + turned[1])), (turned, back)
     assert zoom[3] < 0.95 * zoom[2], zoom                              # it zoomed in
     assert abs(zoom[0] - x) < 3 and abs(zoom[1] - y) < 3, zoom         # towards the cursor
+
+
+SKIN_AREA = """
+const p = window.studio.view.parts[0], g = p.skin.geometry, x = g.attributes.position.array, ix = g.index.array;
+let area = 0;
+for (let i = 0; i < ix.length; i += 3) {
+  const [a, b, c] = [ix[i], ix[i + 1], ix[i + 2]];
+  area += Math.abs((x[3*b] - x[3*a]) * (x[3*c+2] - x[3*a+2]) - (x[3*c] - x[3*a]) * (x[3*b+2] - x[3*a+2])) / 2;
+}
+return area;
+"""
+
+
+def test_the_stage_has_a_legend_named_microphones_and_true_marks_for_locked_cut_and_heavy_cells(tmp_path):
+    with page(tmp_path, "cymatic_sheet", "marks") as driver:
+        # every microphone named on the stage, beside its line
+        until(lambda: driver.execute_script(
+            "return [...document.querySelectorAll('#stage .label.mic')].filter(e => e.style.display !== 'none').length === 2"),
+            10, "no microphone labels")
+        mics = driver.execute_script(
+            "const v = window.studio.view, up = v.canvas.parentElement.getBoundingClientRect();"
+            "return window.studio.desc.microphones.map(m => { const e = [...document.querySelectorAll('#stage .label.mic')]"
+            "  .find(e => e.textContent === m.block), r = e.getBoundingClientRect(), s = v.screenOf(m.lattice, m.flat);"
+            "  return [m.block, (r.left + r.right) / 2 - s.x, r.bottom - s.y]; })")
+        whole = driver.execute_script(SKIN_AREA)
+        # cells (2, 3) and (2, 4) cut, (5, 5) and (0, 0) locked, (7, 9) four times heavier
+        assert send(driver, {"cmd": "cut", "cells": ["sheet[2, 3]", "sheet[2, 4]"]})["ok"]
+        assert send(driver, {"cmd": "lock", "cells": ["sheet[5, 5]", "sheet[0, 0]"]})["ok"]
+        assert send(driver, {"cmd": "cells", "block": "sheet", "cells": [[7, 9]], "mass": 0.002})["ok"]
+        until(lambda: driver.execute_script("return window.studio.desc.lattices[0].cells.length === 1"), 60, "no mass edit")
+        time.sleep(0.3)
+        cut = driver.execute_script(SKIN_AREA)
+        marks = driver.execute_script(
+            "const p = window.studio.view.parts[0], o = p.overlays;"
+            "const cells = (k) => o[k] && o[k].visible ? [...o[k].geometry.index.array] : [];"
+            "return {locked: cells('locked'), lockedMap: !!(o.locked && o.locked.material.map),"
+            " lockedSize: o.locked.material.size, cellSize: p.points.material.size,"
+            " heavy: Object.keys(o).filter(k => k.startsWith('mass')).map(k => [cells(k), o[k].material.size, !!o[k].material.map])};")
+        legend = driver.execute_script(
+            "const l = document.querySelector('#stage .legend'); return l && l.getBoundingClientRect().width > 0 ? l.innerText : ''")
+    for name, dx, dy in mics:
+        assert abs(dx) < 40 and -160 < dy < 0, (name, dx, dy)          # above its cell, centred on it
+    # a cut cell takes away its own tile, one spacing square each: the hole is the cut, not more
+    assert whole == pytest.approx(12 * 16, abs=1e-3), whole
+    assert whole - cut == pytest.approx(2.0, abs=1e-3), (whole, cut)
+    assert sorted(marks["locked"]) == [0, 5 * 16 + 5], marks
+    assert marks["lockedMap"] and marks["lockedSize"] > marks["cellSize"], marks     # a marker, not a dark dot
+    assert [h[0] for h in marks["heavy"]] == [[7 * 16 + 9]], marks
+    assert marks["heavy"][0][1] > marks["cellSize"] and marks["heavy"][0][2], marks    # larger: heavier
+    for words in ("microphone", "excitation", "locked", "cut", "mass", "join", "up", "down"):
+        assert words in legend, (words, legend)

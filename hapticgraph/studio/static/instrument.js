@@ -3,8 +3,8 @@
 // as orange lines between the two cells, as in Cymatic's Virtual Luthiery (seed 001 §2.5).
 import * as THREE from "three";
 import { OrbitControls } from "./vendor/three/OrbitControls.js";
-import { Part } from "./part.js";
-import { SPACING } from "./layout.js";
+import { Part, markerCanvas } from "./part.js";
+import { SPACING, flatten } from "./layout.js";
 
 const GAP = 3 * SPACING;
 const MARGIN = 16;                   // px kept free around the framed parts
@@ -15,6 +15,31 @@ function rendererName() {
   const gl = document.createElement("canvas").getContext("webgl2");
   const info = gl && gl.getExtension("WEBGL_debug_renderer_info");
   return info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : "";
+}
+
+// What the colours and markers mean, in the stage's corner (click to fold it away).
+function legend() {
+  const box = document.createElement("div");
+  box.className = "legend";
+  box.title = "What the colours and markers mean (click to fold)";
+  const row = (swatch, text) => {
+    const r = document.createElement("div");
+    r.append(swatch, Object.assign(document.createElement("span"), { textContent: text }));
+    return r;
+  };
+  const swatch = (cls) => Object.assign(document.createElement("i"), { className: cls });
+  const picture = (kind) => Object.assign(document.createElement("img"), { src: markerCanvas(kind).toDataURL(), className: "marker" });
+  box.append(
+    row(swatch("sw-displacement"), "down · rest · up"),
+    row(swatch("sw-excitation"), "excitation"),
+    row(swatch("sw-mic"), "microphone"),
+    row(swatch("sw-join"), "join (a spring)"),
+    row(picture("locked"), "locked cell"),
+    row(swatch("sw-cut"), "cut cells (a hole)"),
+    row(picture("mass"), "mass edited: larger is heavier"),
+    row(swatch("sw-selection"), "selected"));
+  box.addEventListener("click", () => box.classList.toggle("folded"));
+  return box;
 }
 
 export class Instrument {
@@ -40,7 +65,23 @@ export class Instrument {
     this.scene.add(this.markers);
     this.raycaster = new THREE.Raycaster();
     this.drawn = 0;           // frames drawn with new cell data (for fps)
-    this.framed = false;
+    this.micLabels = [];
+    this.legend = legend();
+    canvas.parentElement.append(this.legend);
+  }
+
+  // The panel protocol: what the describe object says beyond the lattices' shapes (the masses
+  // edited cell by cell).
+  update(desc) {
+    for (const l of desc.lattices) {
+      const part = this.parts[l.id];
+      const base = desc.params.find((p) => p.block === l.name && p.param === "mass");
+      if (!part || !base) continue;
+      const masses = {};
+      for (const c of l.cells || []) if (typeof c.mass === "number" && c.mass !== base.value) masses[flatten(l.shape, c.index)] = c.mass;
+      part.setMasses(masses, base.value);
+    }
+    this.dirty = true;
   }
 
   // lattices as the server's hello describes them; keeps the camera when the shapes did not change
@@ -86,16 +127,18 @@ export class Instrument {
 
   _camera() { return { position: this.camera.position.clone(), target: this.controls.target.clone() }; }
 
-  // The part of the canvas nothing covers: below the toolbar, and beside or above the selection
-  // box in its corner (whichever leaves the larger square), in canvas pixels with a margin.
+  // The part of the canvas nothing covers: below the toolbar, and either above the boxes in the
+  // bottom corners (the selection, the legend) or between them (whichever leaves the larger
+  // square), in canvas pixels with a margin.
   _free() {
     const c = this.canvas.getBoundingClientRect(), up = this.canvas.parentElement;
-    const bar = up.querySelector("#toolbar")?.getBoundingClientRect(), box = up.querySelector("#cell-edit")?.getBoundingClientRect();
-    const top = Math.max(0, (bar ? bar.bottom - c.top : 0)) + LABEL_ROOM, all = { left: MARGIN, right: c.width - MARGIN, top, bottom: c.height - MARGIN };
-    if (!box || !box.width) return all;
-    const beside = { ...all, left: box.right - c.left + MARGIN }, above = { ...all, bottom: box.top - c.top - MARGIN };
+    const rect = (sel) => { const e = up.querySelector(sel), r = e && e.getBoundingClientRect(); return r && r.width ? r : null; };
+    const bar = rect("#toolbar"), box = rect("#cell-edit"), key = rect(".legend:not(.folded)");
+    const top = Math.max(0, (bar ? bar.bottom - c.top : 0)) + LABEL_ROOM;
+    const above = { left: MARGIN, right: c.width - MARGIN, top, bottom: Math.min(c.height, ...[box, key].filter(Boolean).map((r) => r.top - c.top)) - MARGIN };
+    const between = { left: (box ? box.right - c.left : 0) + MARGIN, right: (key ? key.left - c.left : c.width) - MARGIN, top, bottom: c.height - MARGIN };
     const side = (r) => Math.min(r.right - r.left, r.bottom - r.top);
-    return side(beside) >= side(above) ? beside : above;
+    return side(between) >= side(above) ? between : above;
   }
 
   // Every cell in the free part of the canvas, as large as fits: the camera from the look's
@@ -164,6 +207,15 @@ export class Instrument {
       p.label.style.left = `${r.left - up.left + (v.x + 1) / 2 * r.width}px`;
       p.label.style.top = `${r.top - up.top + (1 - v.y) / 2 * r.height}px`;
     }
+    // a microphone's name above the top of its line
+    for (const { label, item } of this.micLabels) {
+      this.parts[item.lattice].cellWorld(item.flat, v);
+      v.y += MARKER_REACH;
+      v.project(this.camera);
+      label.style.display = v.z > 1 || Math.abs(v.x) > 1.2 || Math.abs(v.y) > 1.2 ? "none" : "";
+      label.style.left = `${r.left - up.left + (v.x + 1) / 2 * r.width}px`;
+      label.style.top = `${r.top - up.top + (1 - v.y) / 2 * r.height - 2}px`;
+    }
   }
 
   _resize() {
@@ -181,6 +233,12 @@ export class Instrument {
   setMarkers(excitations, microphones, joins) {
     this.markers.clear();
     this.markerList = [];
+    this.micLabels.forEach((m) => m.label.remove());
+    this.micLabels = microphones.filter((m) => m.lattice != null && this.parts[m.lattice]).map((m) => {
+      const label = Object.assign(document.createElement("div"), { className: "label mic", textContent: m.block });
+      this.canvas.parentElement.append(label);
+      return { label, item: m };
+    });
     const ring = new THREE.TorusGeometry(0.42 * SPACING, 0.07 * SPACING, 8, 24);
     for (const e of excitations) this._mark(e, new THREE.Mesh(ring, new THREE.MeshBasicMaterial({ color: 0x22dd44 })), "ring");
     for (const m of microphones) {

@@ -86,27 +86,45 @@ function centre(pos) {
   return { pos, size: hi.map((h, a) => h - lo[a]) };
 }
 
-// Pairs of cells drawn as line segments (a string's neighbours) or triangles (a sheet's or a
-// slice's quads); a cut cell takes its segments and triangles away.
-export function topology(shape, cut) {
-  const kind = kindOf(shape);
-  const gone = new Set(cut);
-  if (kind === "string") {
-    const seg = [];
-    for (let i = 0; i + 1 < shape[0]; i++) if (!gone.has(i) && !gone.has(i + 1)) seg.push(i, i + 1);
-    return { lines: seg, triangles: [] };
-  }
-  if (kind === "block") return { lines: [], triangles: [] };
-  const h = shape[shape.length - 2], w = shape[shape.length - 1];
-  const tri = [];
-  for (let base = 0; base < count(shape); base += h * w) {
-    for (let r = 0; r + 1 < h; r++) {
-      for (let c = 0; c + 1 < w; c++) {
-        const a = base + r * w + c, b = a + 1, d = a + w, e = d + 1;
-        if (gone.has(a) || gone.has(b) || gone.has(d) || gone.has(e)) continue;
-        tri.push(a, d, b, b, d, e);
+// The skin drawn over the cells: each uncut cell owns the tile (a sheet's or a slice's square,
+// a string's segment) reaching half a spacing to each side, so a cut leaves a hole exactly the
+// size of the cut cells. The tiles' corners are shared: a corner sits half a spacing from the
+// cells around it and moves with their mean. Returns the corners' rest positions (x, y, z), for
+// each corner the uncut cells around it (CSR: start offsets and cells), and the index of the
+// skin's line segments (a string) or triangles (sheets and slices); a block has none.
+export function skin(shape, cut, rest) {
+  const kind = kindOf(shape), gone = new Set(cut), half = SPACING / 2;
+  if (kind === "block") return { corners: new Float32Array(0), start: new Int32Array(1), cells: new Int32Array(0), lines: [], triangles: [] };
+  const h = kind === "string" ? 1 : shape[shape.length - 2], w = shape[shape.length - 1];
+  const slices = count(shape) / (h * w), ch = kind === "string" ? 1 : h + 1, cw = w + 1, per = ch * cw;
+  const corners = new Float32Array(3 * slices * per), around = [];
+  for (let s = 0; s < slices; s++) {
+    for (let r = 0; r < ch; r++) {
+      for (let c = 0; c < cw; c++) {
+        const k = s * per + r * cw + c, cr = Math.min(r, h - 1), cc = Math.min(c, w - 1), f = s * h * w + cr * w + cc;
+        corners[3 * k] = rest[3 * f] + (c < w ? -half : half);
+        corners[3 * k + 1] = rest[3 * f + 1];
+        corners[3 * k + 2] = rest[3 * f + 2] + (kind === "string" ? 0 : r < h ? -half : half);
+        const mine = [];
+        for (const rr of kind === "string" ? [0] : [r - 1, r]) {
+          for (const c2 of [c - 1, c]) {
+            const g = s * h * w + rr * w + c2;
+            if (rr >= 0 && rr < h && c2 >= 0 && c2 < w && !gone.has(g)) mine.push(g);
+          }
+        }
+        around.push(mine);
       }
     }
   }
-  return { lines: [], triangles: tri };
+  const start = new Int32Array(around.length + 1);
+  around.forEach((m, k) => { start[k + 1] = start[k] + m.length; });
+  const cells = Int32Array.from(around.flat());
+  const lines = [], triangles = [];
+  for (let f = 0; f < count(shape); f++) {
+    if (gone.has(f)) continue;
+    const s = Math.floor(f / (h * w)), r = Math.floor((f % (h * w)) / w), c = f % w, a = s * per + r * cw + c;
+    if (kind === "string") lines.push(a, a + 1);
+    else triangles.push(a, a + cw, a + 1, a + 1, a + cw, a + cw + 1);
+  }
+  return { corners, start, cells, lines, triangles };
 }

@@ -56,7 +56,13 @@ export class Wiring {
     this.svg.append(path);
   }
 
-  constructor(ctx) { this.ctx = ctx; this.svg = document.getElementById("wiring"); }
+  constructor(ctx) {
+    this.ctx = ctx;
+    this.svg = document.getElementById("wiring");
+    // the stage draws from the describe object too (edited masses, a waveguide's delay lines):
+    // it is updated with the panels
+    ctx.panels.stage = ctx.view;
+  }
 
   update(desc) {
     const names = desc.graph.blocks.map((b) => b.name);
