@@ -8,7 +8,11 @@ NotImplementedError on Push/Pop, and gives a Report Count larger than its usages
 fields as usages, so the FR-TEC Raptor's report (128 buttons, 29 usages) comes out 405 bits long
 instead of 504 and every field after the buttons at the wrong offset; it has no usage names.
 What hid-tools gets wrong is put right here: a one-byte Unit Exponent such as 0xFD (−3) it
-reads as 237; a field with no usage (usage 0) is padding, as in the kernel.
+reads as 237; a field with no usage (usage 0) is padding, as in the kernel; a field wider than
+its all-ones Logical Maximum item (`25 FF` on a 16-bit field: −1 as HID 1.11 reads signed item
+data, 255 as hid-tools and the kernel read it) spans its bits, 0 … 2^size − 1, as Windows reads
+a maximum below the minimum — the case of the descriptors hidapi rebuilds from Windows' parse,
+the Xbox controller's among them, whose sticks fill 16 bits (tests/devices/test_hid_descriptor.py).
 
 Every non-constant input field with a usage becomes one Input (see hapticgraph.devices.hid_usages
 for its name and scaling):
@@ -255,10 +259,11 @@ def parse(data):
     except (ParseError, KeyError, IndexError, ValueError, AssertionError) as exc:
         raise DescriptorError(f"not a HID report descriptor hid-tools can read ({exc})") from None
     apps, inputs, outputs = _applications(rd), [], []
+    wide = _wider_than_their_maximum(rd)
     numbered = any(rid >= 0 for rid in list(rd.input_reports) + list(rd.output_reports) + list(rd.feature_reports))
     sizes = {}
-    for rid, report in rd.input_reports.items():
-        rid = max(rid, 0)
+    for raw_rid, report in rd.input_reports.items():
+        rid = max(raw_rid, 0)
         shift = 8 if report.numbered else 0
         sizes[rid] = (report.bitsize - shift + 7) // 8
         for f in report.fields:
@@ -268,6 +273,8 @@ def parse(data):
             offset = f.start - shift
             if f.is_array:
                 inputs += _array_inputs(f, rid, offset, label, index)
+            elif (raw_rid, f.logical_min, f.logical_max, f.size) in wide:
+                inputs.append(replace(_variable_input(f, rid, offset, label, index), logical_max=(1 << f.size) - 1))
             else:
                 inputs.append(_variable_input(f, rid, offset, label, index))
     for rid, report in rd.output_reports.items():
@@ -279,6 +286,29 @@ def parse(data):
             outputs.append(_output(f, max(rid, 0), f.start - shift, label))
     return Descriptor(data, tuple(_number(inputs)), tuple(_number(outputs)), numbered, sizes,
                       tuple((label, page, usage) for label, page, usage in apps))
+
+
+def _wider_than_their_maximum(rd):
+    """{(report id, logical min, logical max, bit size)} of the Input items whose Logical Maximum item
+    is all ones (0xFF, 0xFFFF: −1 read signed) and narrower than the field, the minimum not negative."""
+    g, stack, out = {"rid": -1, "min": 0, "max": 0, "raw": (), "size": 0}, [], set()
+    for item in rd.rdesc_items:
+        if item.item == "Report ID":
+            g["rid"] = item.value
+        elif item.item == "Logical Minimum":
+            g["min"] = item.value
+        elif item.item == "Logical Maximum":
+            g["max"], g["raw"] = item.value, tuple(item.raw_value)
+        elif item.item == "Report Size":
+            g["size"] = item.value
+        elif item.item == "Push":
+            stack.append(dict(g))
+        elif item.item == "Pop" and stack:
+            g = stack.pop()
+        elif item.item == "Input" and g["raw"] and set(g["raw"]) == {0xFF} and g["min"] >= 0 \
+                and g["size"] > 8 * len(g["raw"]):
+            out.add((g["rid"], g["min"], g["max"], g["size"]))
+    return out
 
 
 def _applications(rd):

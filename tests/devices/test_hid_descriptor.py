@@ -281,3 +281,38 @@ def test_3d_mouse_relative_axes_in_physical_units():
     assert r["x"] == pytest.approx(1.4e-3) and r["y"] == pytest.approx(-0.7e-3) and r["z"] == 0
     out = np.zeros(dec.width)
     assert dec.still(out) and out[0] == 0.0 and out[2] == 0.0      # silent: a relative field falls back to 0
+
+
+def test_the_xbox_sticks_span_their_16_bits():
+    """microsoft_xbox_controller_045e_02ff.rdesc (hidapi's rebuild of what Windows parsed) gives
+    its 16-bit sticks and trigger axis `Logical Maximum (0xFF)` in one byte: −1 as HID 1.11 reads
+    item data (signed), 255 as hid-tools and the kernel read it (unsigned when the minimum is not
+    negative). Neither fits: the controller's reports fill the 16 bits — its own descriptors say
+    0 … 65535 (the Xbox Wireless Controller's over Bluetooth: `27 FF FF 00 00`), xpad gives
+    −32768 … 32767 — and Windows reads a maximum below the minimum as no bound. So a field wider
+    than an all-ones Logical Maximum item spans its bits; read 0 … 255, a stick at rest (0x8000)
+    would be pinned at +1."""
+    d = desc("microsoft_xbox_controller_045e_02ff.rdesc")
+    for name, offset in (("x", 0), ("y", 16), ("rx", 32), ("ry", 48), ("z", 64)):
+        assert spot(d, name) == (0, offset, 16, 0, 65535), name
+    dev = DescribedDevice(d)
+    # x at 0, y at 0xffff, rx at rest 0x8000, ry 0x4000, z (both triggers) at rest 0x8000; hat 1 (up)
+    fields = (0x0000, 0xFFFF, 0x8000, 0x4000, 0x8000)
+    report = b"".join(v.to_bytes(2, "little") for v in fields) + bytes([0, 0, 1, 0, 0, 0])
+    r, _ = row_of(dev, report)
+    assert (r["x"], r["y"]) == (-1.0, 1.0)
+    assert r["rx"] == pytest.approx(1 / 65535) and r["z"] == pytest.approx(1 / 65535)
+    assert r["ry"] == pytest.approx(2 * 0x4000 / 65535 - 1)
+    assert r["hat"] == 0.0 and spot(d, "hat") == (0, 96, 4, 1, 8)
+
+
+@pytest.mark.parametrize("maximum, size, want", [
+    ("25 ff", 8, 255),          # one byte on an 8-bit field: the kernel's 255 is the field's range too
+    ("26 ff 00", 16, 255),      # two bytes, not all ones: 255 as written
+    ("26 ff ff", 16, 65535),    # two bytes of ones on a 16-bit field
+    ("25 ff", 16, 65535),       # one byte of ones on a 16-bit field (the Xbox's)
+    ("26 ff ff", 32, 0xFFFFFFFF),
+])
+def test_an_all_ones_maximum_narrower_than_its_field(maximum, size, want):
+    data = bytes.fromhex(f"05 01 09 04 a1 01 09 30 15 00 {maximum} 75 {size:02x} 95 01 81 02 c0")
+    assert spot(parse(data), "x") == (0, 0, size, 0, want)
