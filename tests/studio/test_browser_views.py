@@ -236,3 +236,40 @@ def test_the_stage_has_a_legend_named_microphones_and_true_marks_for_locked_cut_
     assert marks["heavy"][0][1] > marks["cellSize"] and marks["heavy"][0][2], marks    # larger: heavier
     for words in ("microphone", "excitation", "locked", "cut", "mass", "join", "up", "down"):
         assert words in legend, (words, legend)
+
+
+def test_a_waveguide_patch_is_drawn_on_the_stage_and_the_modes_tab_says_what_it_can(tmp_path):
+    with page(tmp_path, "fig8_pluck_damp", "waveguide") as driver:
+        time.sleep(0.5)
+        drawn = driver.execute_script(
+            "const w = window.studio.view.waveguide, c = window.studio.view.canvas.getBoundingClientRect();"
+            "if (!w) return null;"
+            "const seen = (e) => { const r = e.getBoundingClientRect(); return e.style.display !== 'none'"
+            "  && r.left >= c.left && r.right <= c.right && r.top >= c.top && r.bottom <= c.bottom; };"
+            "return {loop: w.layout.loop, samples: w.layout.samples, delays: w.layout.delays.map(d => [d.block, d.length]),"
+            " nodes: Object.fromEntries(w.layout.nodes.map(n => [n.block, [n.x, n.z, n.onLoop]])),"
+            " labels: [...document.querySelectorAll('#stage .label.wg')].filter(seen).map(e => e.textContent),"
+            " meshes: w.group.children.length};")
+        tab(driver, "modes")
+        modes = until(lambda: driver.execute_script("return document.querySelector('#modes-list').innerText"), 10,
+                      "the modes tab is empty")
+        driver.find_element("css selector", "#modes-go").click()
+        time.sleep(1.0)
+        after = driver.execute_script("return document.querySelector('#modes-list').innerText")
+    assert drawn is not None, "nothing drawn for the waveguide"
+    # the string's round trip: nut -> r1 -> j -> r2 -> r3 -> bridge -> l3 -> l2 -> j -> l1 -> nut
+    assert drawn["loop"] == ["nut", "r1", "j", "r2", "r3", "bridge", "l3", "l2", "j", "l1"], drawn["loop"]
+    assert sorted(drawn["delays"]) == [["l1", 11], ["l2", 26], ["l3", 11], ["r1", 11], ["r2", 27], ["r3", 11]]
+    assert drawn["samples"] == 97
+    nodes = drawn["nodes"]
+    # folded in two: the nut at one end, the bridge at the other, the junction 11 samples from the nut
+    assert nodes["nut"][0] < nodes["j"][0] < nodes["bridge"][0], nodes
+    assert nodes["j"][0] - nodes["nut"][0] == pytest.approx(11, abs=0.01), nodes
+    assert nodes["bridge"][0] - nodes["nut"][0] == pytest.approx(97 / 2, abs=1), nodes
+    assert all(nodes[b][2] for b in ("nut", "j", "bridge")) and not nodes["finger"][2], nodes
+    assert set(nodes) == {"nut", "j", "bridge", "finger", "xs", "tip", "contact", "pad_R", "pad", "mic", "out"}
+    for text in ("r1 · 11 samples", "r2 · 27 samples", "l2 · 26 samples", "j: explicit_junction", "finger: haptic",
+                 "mic: mic"):
+        assert text in drawn["labels"], (text, drawn["labels"])       # labelled, and inside the stage
+    assert "lattice" in modes and "97 samples" in modes, modes
+    assert after == modes, after                                       # Compute says the same, not nothing

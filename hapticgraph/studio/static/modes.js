@@ -2,6 +2,7 @@
 // instrument (`mode_shape`, swinging at a visible rate instead of the live frames); the predicted
 // frequencies drawn as lines over the measured spectrum of the probed signal.
 import { $, el, fmt } from "./dom.js";
+import { stringLayout } from "./waveguide.js";
 
 const SWING_HZ = 0.8;
 const SILENT_DB = -200;          // |X|² below 1e-20: nothing to compare with
@@ -17,11 +18,30 @@ export class Modes {
     setInterval(() => this.drawSpectrum(), 500);
   }
 
-  update(desc) { this.desc = desc; }
+  update(desc) {
+    this.desc = desc;
+    if (!desc.lattices.length) this._noLattice(desc);
+  }
+
+  // A patch without a mass-spring network: what the tab can say (its longest delay loop's length)
+  _noLattice(desc) {
+    const lengths = Object.fromEntries(desc.params.filter((p) => p.type === "delay" && p.param === "length").map((p) => [p.block, p.value]));
+    const string = stringLayout(desc.graph, lengths), rate = desc.patch.rate, list = $("#modes-list");
+    list.innerHTML = "";
+    list.append(el("p", { text: "Modes are computed for mass-spring lattices (cells joined by springs); this patch has none." }));
+    if (!string) return;
+    const { loop, samples } = string;
+    const others = [...new Set(loop.filter((b) => !lengths[b]))];
+    const names = loop.concat(loop[0]).join(" → ");
+    list.append(el("p", { class: "loop", text: `Its longest loop through delay lines, ${names}, holds ${samples} samples in its delay lines`
+      + `${others.length ? ` (${others.join(", ")} may add their own delay)` : ""}: a round trip of at least ${fmt(samples / rate * 1000)} ms, `
+      + `so its fundamental is at most ${fmt(rate)}/${samples} = ${fmt(rate / samples)} Hz.` }));
+  }
 
   showing(id) { return this.shown.has(id); }
 
   async compute() {
+    if (!this.desc.lattices.length) { this._noLattice(this.desc); return { ok: true, result: { networks: [] } }; }
     const count = Number($("#modes-count").value) || 10;
     const r = await this.ctx.send({ cmd: "modes", count });
     if (!r.ok) return r;
