@@ -9,7 +9,8 @@ protocol, so a plugin adds a family (or a new link law inside one) without touch
 The step's arguments are spelled with the four small values below, which the compiler turns into
 kernel arguments and the interpreter into Python values, one meaning for both:
   Array(key)                  one of the group's arrays
-  Number(value, kind, name)   data: a size, a time step (loaded from an array: editing it re-uses the kernel)
+  Number(value, kind, name, of_rate)  data: a size, a time step (loaded from an array: editing it
+                              re-uses the kernel); `of_rate`: the function of the rate it is, if it is one
   Flag(value)                 structure: a literal in the kernel (a boundary kind, a branch)
   Control(block, param, inverse)  the live value of a member's parameter, or the sum of the
                               connections driving it; 1/value when `inverse`
@@ -33,6 +34,7 @@ class Number:
     value: float
     kind: str = "float"       # "float", "int" or "index" (an integer ≥ 0)
     name: str = "n"
+    of_rate: object = None    # value = of_rate(rate), a plain function a host's rate is given to (the C export)
 
 
 @dataclass(frozen=True)
@@ -51,10 +53,11 @@ class Control:
 class Change:
     """What a point's output reads when the group does not store it: the change of one array
     against another, (array[key][i] − array[before][i]) · per (a lattice stepped in one pass
-    gives a cell's velocity as (x[n] − x[n−1]) · fs)."""
+    gives a cell's velocity as (x[n] − x[n−1]) · fs); `of_rate`, as Number's."""
     key: str
     before: str
     per: float
+    of_rate: object = None
 
 
 @dataclass(frozen=True)
@@ -160,6 +163,12 @@ class Group:
 
     def controls(self):
         """[(array key, (row, col), Control)]: set every sample before the step."""
+        return []
+
+    def rate_rows(self):
+        """[(array key, row, function, arguments)]: rows of the group's arrays (their first values)
+        computed from the rate as `function(*arguments, rate)`, a plain function (the C export
+        translates it, to compute them again at a host's rate)."""
         return []
 
     def wired(self, points):

@@ -70,6 +70,8 @@ class GroupStep:
         self.points = {}                 # point index (or a Change's scale) -> its number node
         self.forces = {}                 # (array key, point index) -> [sources]
         self.sets, self.call = [], None
+        self.rated = []                  # (number node, function of the rate it is): Number.of_rate, Change.of_rate
+        self.rate_rows = []              # (ArrayRef, row, function, arguments): Group.rate_rows
 
     def point(self, end):
         """The point index of an endpoint, or None."""
@@ -87,9 +89,15 @@ class GroupStep:
         if isinstance(read, Change):
             key = ("per", read.key, read.before, read.per)
             if key not in self.points:
-                self.points[key] = self.prog.number(read.per, "float", self.prefix, f"per_{read.key}_{read.before}")
+                self.points[key] = self._number(read.per, "float", f"per_{read.key}_{read.before}", read.of_rate)
             return Difference(self._item(read.key, end), self._item(read.before, end), self.points[key])
         return self._item(read, end)
+
+    def _number(self, value, kind, name, of_rate):
+        node = self.prog.number(value, kind, self.prefix, name)
+        if of_rate is not None:
+            self.rated.append((node, of_rate))
+        return node
 
     def _item(self, key, end):
         ref = self.arrays[key]
@@ -109,7 +117,7 @@ class GroupStep:
         if isinstance(arg, Array):
             return self.arrays[arg.key]
         if isinstance(arg, Number):
-            return prog.number(arg.value, arg.kind, self.prefix, arg.name)
+            return self._number(arg.value, arg.kind, arg.name, arg.of_rate)
         if isinstance(arg, Flag):
             return Literal(bool(arg.value), f"{self.prefix}: {name}")
         if isinstance(arg, Control):
@@ -131,6 +139,7 @@ class GroupStep:
         names = arguments(fn) + ("",) * len(args)       # a literal is named after its argument
         self.call = (fn, [self._node(a, names[k]) for k, a in enumerate(args)])
         self.rotations = [(self.arrays[a], self.arrays[b]) for a, b in self.group.rotations()]
+        self.rate_rows = [(self.arrays[key], row, fn, args) for key, row, fn, args in self.group.rate_rows()]
 
     # -- the schedule-item protocol ------------------------------------------------------------
     def functions(self):

@@ -15,17 +15,44 @@ import numpy as np
 from .members import (GROUND, ends_of, group, index_problem, is_lattice, is_link, is_point_block, law_of,
                       owns_point, parse_ref, refs_of)
 from .network import network_of
+from .steps import time_step
 
 EXACT_CELLS = 250_000   # networks up to this many cells are checked cell by cell, larger by a bound
 MAX_CELLS = 20_000_000
 BYTES_PER_CELL = 160   # an upper estimate of the fused arrays per cell (see benchmarks)
 STABILITY_BOUND = 2.0
 BODIES = ("cell", "lattice")   # the bodies a network holds (Component); plugins add links
+# the problems of the stability check, %-formats (so the C export, which checks a host's rate,
+# writes them too: graph/c/stability.py)
+UNSTABLE = ("block %s (%s): unstable at %g Hz: cell %s has dt²·Σk/m + dt·γ/m = %.3g, the half-step "
+            "scheme needs < %g (%s; or raise the rate)")
+TENSION_HINT = "largest stable tension %.4g N/m"
+JOINS_HINT = "its joins alone are too stiff for it: lower their tension"
+MASS_HINT = "smallest stable mass %s%.4g kg"
+OWN_MASS = ("block %s (%s): unstable at %g Hz: its mass %g kg against its contact (law %s, slope up to %.4g N/m "
+            "in its declared range) has dt²·k/m = %.3g, the half-step scheme needs < %g (a heavier hammer, a "
+            "smaller range or k, or a higher rate)")
 
 
 def stability_number(dt, stiffness_sum, mass, damping):
     """dt²·Σk/m + dt·γ/m: the half-step scheme needs it below STABILITY_BOUND."""
     return dt * dt * stiffness_sum / mass + dt * damping / mass
+
+
+def stiffness_budget(dt, mass, damping):
+    """The Σk a cell of this mass and damping can take at step dt."""
+    return (STABILITY_BOUND - dt * damping / mass) * mass / (dt * dt)
+
+
+def largest_tension(tension, budget, k_own, k_join):
+    """The largest stable tension of a lattice whose own springs give k_own at `tension` (the
+    joins, k_join, do not scale with it)."""
+    return tension * (budget - k_join) / k_own
+
+
+def smallest_mass(dt, stiffness_sum, damping):
+    """The smallest stable mass of a cell with this Σk and damping at step dt."""
+    return (dt * dt * stiffness_sum + dt * damping) / STABILITY_BOUND
 
 
 def check_members(members, problems):
@@ -99,18 +126,18 @@ def _point_ref(text, members, blocks, declared, fail):
     return ref
 
 
+def own_masses(springs):
+    """[(link, its law's name, its stiffest slope)] of the links with a mass of their own (a hammer)."""
+    return [(s, law_of(s).name, law_of(s).slope(s.values)) for s in springs if owns_point(s)]
+
+
 def check_own_masses(springs, rate, problems):
     """A link with its own mass (a hammer) against its law's stiffest slope."""
-    for s in springs:
-        if owns_point(s):
-            slope = law_of(s).slope(s.values)
-            number = stability_number(1.0 / rate, slope, s.values["mass"], 0.0)
-            if number >= STABILITY_BOUND:
-                problems.add(s.line, f"block {s.name!r} ({s.cls.type_name}): unstable at {rate:g} Hz: its mass "
-                                     f"{s.values['mass']:g} kg against its contact (law {law_of(s).name}, slope up "
-                                     f"to {slope:.4g} N/m in its declared range) has dt²·k/m = {number:.3g}, the "
-                                     f"half-step scheme needs < {STABILITY_BOUND:g} (a heavier hammer, a smaller "
-                                     "range or k, or a higher rate)")
+    for s, law, slope in own_masses(springs):
+        number = stability_number(time_step(rate), slope, s.values["mass"], 0.0)
+        if number >= STABILITY_BOUND:
+            problems.add(s.line, OWN_MASS % (repr(s.name), s.cls.type_name, rate, s.values["mass"], law, slope, number,
+                                             STABILITY_BOUND))
 
 
 def _cells(inst):
@@ -134,34 +161,61 @@ def check_cells(members, problems):
             return
 
 
-def _worst_exact(bodies, springs, rate):
-    """The cell of a network farthest from stability, from its fused arrays:
-    (number, component inst, label, m, Σk, γ, Σk of its lattice, Σk of its joins, component mass)."""
+class Candidate:
+    """A cell the stability check may name: its component's block `inst`, `mass`, Σk
+    (`stiffness`: `own` of its lattice's springs and anchors, `join` of its joins and links) and
+    `damping`; its `label` (computed when asked: `label_of()`)."""
+
+    def __init__(self, inst, label_of, mass, own, join, damping):
+        self.inst, self._label_of = inst, label_of
+        self.mass, self.own, self.join, self.damping = float(mass), float(own), float(join), float(damping)
+        self.stiffness = self.own + self.join
+        self._label = None
+
+    @property
+    def label(self):
+        if self._label is None:
+            self._label = self._label_of()
+        return self._label
+
+    @property
+    def tension(self):
+        """The lattice's tension when a tension hint applies (its own springs scale with it), else None."""
+        v = self.inst.values
+        return v["tension"] if is_lattice(self.inst) and v["tension"] > 0 and self.own > 0 else None
+
+    @property
+    def of_cell(self):
+        """'of cell LABEL ' when its mass is its own (cells:), not the lattice's."""
+        return f"of cell {self.label} " if is_lattice(self.inst) and self.mass != self.inst.values["mass"] else ""
+
+
+def _exact_candidates(bodies, springs, rate):
+    """From the network's fused arrays: the first movable cell of each distinct (Σk, m, γ) (a
+    later one with the same numbers is never the first of the worst)."""
     net = network_of(bodies, springs, rate)
     if net.n == 0:
-        return None
+        return []
     mass, damp = net.masses(), net.dampings() + net.nl_g
-    movable = np.isfinite(mass)
-    if not movable.any():
-        return None
     own, joins = net.stiffness_parts(laws=True)
-    ksum = own + joins
-    number = np.where(movable, stability_number(net.dt, ksum, np.where(movable, mass, 1.0), damp), 0.0)
-    worst = int(np.argmax(number))
-    comp = net.component_of(worst)
-    label = comp.label(worst)
-    if worst in net.nl_worst:
-        _, link, law, what = net.nl_worst[worst]
-        label += f" (its stiffest link: {link!r}, law {law}, {what} in its declared range)"
-    return (float(number[worst]), comp.inst, label, mass[worst], ksum[worst], damp[worst],
-            own[worst], joins[worst])
+    movable = np.flatnonzero(np.isfinite(mass))
+    rows = np.stack([own[movable] + joins[movable], mass[movable], damp[movable]], axis=1)
+    _, first = np.unique(rows, axis=0, return_index=True)
+
+    def label_of(cell):
+        label = net.component_of(cell).label(cell)
+        if cell in net.nl_worst:
+            _, link, law, what = net.nl_worst[cell]
+            label += f" (its stiffest link: {link!r}, law {law}, {what} in its declared range)"
+        return label
+    return [Candidate(net.component_of(int(i)).inst, lambda i=int(i): label_of(i), mass[i], own[i], joins[i], damp[i])
+            for i in movable[np.sort(first)]]
 
 
-def _worst_bound(bodies, springs, rate):
+def _bound_candidates(bodies, springs, rate):
     """The same for a network too big to build at check time, from its declarations: every
     cell is given the most lattice springs a cell of its lattice can have (so the bound never
     passes an unstable network); cells with overrides or joins are taken one by one."""
-    dt = 1.0 / rate
     joins, gammas = {}, {}
     for s in springs:
         for ref in refs_of(s):
@@ -170,7 +224,7 @@ def _worst_bound(bodies, springs, rate):
             law = law_of(s)
             joins[cell] = joins.get(cell, 0.0) + (s.values["tension"] if law is None else law.slope(s.values))
             gammas[cell] = gammas.get(cell, 0.0) + (0.0 if law is None else law.damping_slope(s.values))
-    best = None
+    out = []
     for inst in bodies:
         v = inst.values
         if is_point_block(inst):
@@ -194,12 +248,30 @@ def _worst_bound(bodies, springs, rate):
                 continue
             o = overrides.get(index, {})
             m, g = o.get("mass", v["mass"]), o.get("damping", v["damping"]) + gammas.get((inst.name, index), 0.0)
-            k_join = joins.get((inst.name, index), 0.0)
-            number = stability_number(dt, own + k_join, m, g)
-            if best is None or number > best[0]:
-                label = inst.name if index is None else f"{inst.name}[{', '.join(map(str, index))}]"
-                best = (number, inst, label, m, own + k_join, g, own, k_join)
-    return best
+            label = inst.name if index is None else f"{inst.name}[{', '.join(map(str, index))}]"
+            out.append(Candidate(inst, lambda label=label: label, m, own, joins.get((inst.name, index), 0.0), g))
+    return out
+
+
+def stability_candidates(bodies, springs, rate):
+    """The cells of one group of touching members that the stability check may name at any rate
+    ([Candidate]: the first with the largest stability number is the one; none of the rest can
+    be). Exact up to EXACT_CELLS cells, else a bound from the declarations."""
+    if not any(not is_point_block(m) for m in bodies):
+        return []
+    exact = sum(_cells(m) for m in bodies) <= EXACT_CELLS and not _uniform(bodies, springs)
+    return (_exact_candidates if exact else _bound_candidates)(bodies, springs, rate)
+
+
+def worst(candidates, rate):
+    """(number, Candidate): the first of the candidates with the largest stability number at rate;
+    None when there is none."""
+    if not candidates:
+        return None
+    numbers = stability_number(time_step(rate), np.array([c.stiffness for c in candidates]),
+                               np.array([c.mass for c in candidates]), np.array([c.damping for c in candidates]))
+    at = int(np.argmax(numbers))
+    return float(numbers[at]), candidates[at]
 
 
 def _uniform(bodies, springs):
@@ -211,36 +283,29 @@ def _uniform(bodies, springs):
     return not v["lock"] and not v["cut"] and not v["cells"]
 
 
+def rate_limits(members, rate):
+    """What the stability check reads of the rate, group by group of the members (name -> instance,
+    as loaded at `rate`): [(springs, candidates)] — so the C export checks a host's rate with the
+    same numbers (graph/c/stability.py)."""
+    return [(springs, stability_candidates(bodies, springs, rate)) for bodies, springs in group(members.values())]
+
+
 def check_stability(members, rate, problems):
     """Refuse a network whose half-step update would blow up, naming the worst cell."""
-    for bodies, springs in group(members.values()):
+    for springs, candidates in rate_limits(members, rate):
         check_own_masses(springs, rate, problems)
-        if not any(not is_point_block(m) for m in bodies):
-            continue
-        exact = sum(_cells(m) for m in bodies) <= EXACT_CELLS and not _uniform(bodies, springs)
-        found = (_worst_exact if exact else _worst_bound)(bodies, springs, rate)
-        if found is None or found[0] < STABILITY_BOUND:
-            continue
-        number, inst, label, m, k, g, k_own, k_join = found
-        problems.add(inst.line, f"block {inst.name!r} ({inst.cls.type_name}): unstable at {rate:g} Hz: cell "
-                                f"{label} has dt²·Σk/m + dt·γ/m = {number:.3g}, the half-step "
-                                f"scheme needs < {STABILITY_BOUND:g} ({'; '.join(_hints(found, rate))}; or raise "
-                                "the rate)")
+        found = worst(candidates, rate)
+        if found is not None and found[0] >= STABILITY_BOUND:
+            problems.add(found[1].inst.line, unstable(found[0], found[1], rate))
 
 
-def _hints(found, rate):
-    """The largest stable value of the component's tension (or the smallest mass), others fixed."""
-    number, inst, label, m, k, g, k_own, k_join = found
-    dt = 1.0 / rate
+def unstable(number, c, rate):
+    """The problem of candidate c, the worst at rate with this stability number: with the
+    largest stable value of its lattice's tension (or the smallest mass), others fixed."""
+    dt = time_step(rate)
     hints = []
-    budget = (STABILITY_BOUND - dt * g / m) * m / (dt * dt)   # the Σk the cell can take
-    if is_lattice(inst) and inst.values["tension"] > 0 and k_own > 0:
-        if budget > k_join:
-            # only the lattice's own springs scale with its tension; the joins do not
-            hints.append(f"largest stable tension {inst.values['tension'] * (budget - k_join) / k_own:.4g} N/m")
-        else:
-            hints.append("its joins alone are too stiff for it: lower their tension")
-    mass_needed = (dt * dt * k + dt * g) / STABILITY_BOUND     # of the cell at fault
-    own_mass = is_lattice(inst) and m != inst.values["mass"]   # its own (cells:), not the lattice's
-    hints.append(f"smallest stable mass {f'of cell {label} ' if own_mass else ''}{mass_needed:.4g} kg")
-    return hints
+    if c.tension is not None:
+        budget = stiffness_budget(dt, c.mass, c.damping)
+        hints.append(TENSION_HINT % largest_tension(c.tension, budget, c.own, c.join) if budget > c.join else JOINS_HINT)
+    hints.append(MASS_HINT % (c.of_cell, smallest_mass(dt, c.stiffness, c.damping)))
+    return UNSTABLE % (repr(c.inst.name), c.inst.cls.type_name, rate, c.label, number, STABILITY_BOUND, "; ".join(hints))

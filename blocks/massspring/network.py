@@ -14,7 +14,7 @@ from .arrays import IDX, cell_arrays, components, join_csr, lattice_csr
 from .laws import LinearLaw, network_step_for
 from .members import GROUND, index_problem, is_point_block, law_of, layout, owns_point, parse_ref, refs_of
 from .stencils import cube_step, padded, padded_index, padded_zeros, sheet_step, string_step
-from .steps import network_step
+from .steps import network_step, per_second, time_step
 
 STENCILS = {"string": string_step, "sheet": sheet_step, "cube": cube_step}
 # per-cell tables built on first use (Network.tables): a lattice on a stencil runs without them
@@ -31,7 +31,7 @@ class Network(LinearGroup):
     inv_m, damp, anchor, cid, rowptr, col, kr, jrow, jcol, jk, inv_m0, nl_k, nl_g = map(_table, TABLES)
 
     def __init__(self, members, springs, rate, stencils=True):
-        self.dt = 1.0 / rate
+        self.dt = time_step(rate)
         self.rate = rate
         self.running = False        # a Program runs it (`wired`): the next to ask builds their own
         self.point_blocks = [m for m in members if is_point_block(m)]
@@ -240,7 +240,7 @@ class Network(LinearGroup):
 
     def reading(self, port):
         if port == "velocity" and self.stencil is not None:
-            return Change("x", "p", self.rate)            # (x[n] − x[n−1]) · fs
+            return Change("x", "p", per_second(self.rate), per_second)      # (x[n] − x[n−1]) · fs
         return self.point_array(port)
 
     def rotations(self):
@@ -263,8 +263,14 @@ class Network(LinearGroup):
                 out += [(f"{law.name}_p", (j, col), Control(row[4], param)) for col, param in law.controls]
         return out
 
+    def rate_rows(self):
+        """Each nonlinear link's row of its law's parameters (`Law.row`, which may read the rate)."""
+        values = {s.name: s.values for s in self.springs}
+        return [(f"{law.name}_p", j, law.row, (values[row[4]],)) for law, rows in self.laws.items()
+                for j, row in enumerate(rows)]
+
     def step(self):
-        dt = Number(self.dt, "float", "dt")
+        dt = Number(self.dt, "float", "dt", time_step)
         if self.stencil is None:
             keys = ("x", "v", "f", "inv_m", "damp", "anchor", "cid", "rowptr", "col", "kr", "jrow", "jcol", "jk",
                     "scale")

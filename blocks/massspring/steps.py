@@ -9,6 +9,16 @@ A cell's `position` output is x[n], its `velocity` v[n−½]; its `force` input 
 from ..vocabulary import helper
 
 
+def time_step(fs):
+    """The step of a network at rate fs: dt = 1/fs [s]."""
+    return 1.0 / fs
+
+
+def per_second(fs):
+    """What a change over one sample is multiplied by to be a rate of change: fs [1/s]."""
+    return fs
+
+
 @helper
 def network_step(pos, vel, frc, inv_m, damp, anchor, cid, rowptr, col, kr, jrow, jcol, jk, scale, dt):
     """One half-step of a fused network with CSR spring lists (unsigned indices).

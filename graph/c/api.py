@@ -11,7 +11,8 @@ HEADER = """\
    output column k (the others, in order); it returns 0, or the safety check's fault code (the
    forces of that call are then zero). {name}_set(s, index, value) changes live parameter `index`
    of {name}_params from the next call on: 0, or -1 (not a live parameter), -2 (out of range),
-   -3 (it would change the kernel's structure). */
+   -3 (it would change the kernel's structure). {name}_refused(rate, why, size) says why {name}_new
+   refuses a rate (as `hapticgraph check` says it of the patch at that rate). */
 #ifndef {guard}
 #define {guard}
 #ifdef __cplusplus
@@ -31,6 +32,7 @@ extern const {name}_port {name}_ports[];     /* inputs, then outputs; a NULL nam
 extern const {name}_param {name}_params[];   /* a NULL name ends it */
 
 {name} *{name}_new(double rate);
+int {name}_refused(double rate, char *why, int size);   /* 0, or 1 and why (one problem a line, at most size bytes) */
 void {name}_free({name} *s);
 void {name}_reset({name} *s);
 int {name}_process({name} *s, const double *const *in, double *const *out, int n);
@@ -98,15 +100,18 @@ def struct(plan):
 
 
 def _all(calls, args):
-    return "".join(f"    if ({c}({args})) return 1;\n" for c in calls)
+    """Each call; a refusal said (`w`, NULL: not said), and 1 returned when one refused."""
+    lines = "".join(f"    if ({c}({args})) {{ bad = 1; hg_say(w, {c_string(said)}, fs); }}\n" for c, said in calls)
+    return "    int bad = 0;\n" + lines + "    (void)w;\n    return bad;\n"
 
 
 def setup_calls(plan):
-    """hg_check_all, hg_derive_all, hg_in_range and hg_apply."""
+    """hg_check_all, hg_derive_all (each saying what refuses the rate into `w`, NULL: nothing said),
+    hg_in_range and hg_apply."""
     live = "const double *hg_live, double fs"
-    out = [f"static int hg_check_all({live})\n{{\n{_all(plan.checks, 'hg_live, fs')}    return 0;\n}}\n",
-           f"static int hg_derive_all({live}, double *hg_coef)\n{{\n"
-           f"{_all(plan.derives, 'hg_live, fs, hg_coef')}    return 0;\n}}\n"]
+    out = [f"static int hg_check_all({live}, hg_why *w)\n{{\n{_all(plan.checks, 'hg_live, fs')}}}\n",
+           f"static int hg_derive_all({live}, double *hg_coef, hg_why *w)\n{{\n"
+           f"{_all(plan.derives, 'hg_live, fs, hg_coef')}}}\n"]
     cases = []
     for index, p in enumerate(plan.params):
         tests = [f"v {op} {literal(b)}" for op, b in p.bounds]
@@ -115,7 +120,7 @@ def setup_calls(plan):
     out.append("static int hg_in_range(int index, double v)\n{\n    switch (index) {\n" + "\n".join(cases)
                + ("\n" if cases else "") + "    default: return 1;\n    }\n}\n")
     out.append(f"static void hg_apply({plan.name} *s)\n{{\n    memcpy(s->live, s->next_live, sizeof s->live);\n"
-               "    (void)hg_derive_all(s->live, s->rate, s->coef);\n    s->dirty = 0;\n}\n")
+               "    (void)hg_derive_all(s->live, s->rate, s->coef, NULL);\n    s->dirty = 0;\n}\n")
     return "\n".join(out)
 
 

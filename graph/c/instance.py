@@ -2,21 +2,40 @@
 at that rate, rings allocated: the only allocation), _reset, _free, _process (pending parameter
 changes applied, then the translated kernel over n samples), _set and _get. `plan` is a
 graph/c/export.CPlan."""
+from .api import c_string
 from .values import array_kind, literal
+
+
+def refused(plan):
+    """NAME_refused: every reason NAME_new has to refuse a rate, said."""
+    n, low, high = plan.name, literal(plan.rates[0]), literal(plan.rates[1])
+    outside = f"rate %g Hz: outside the {plan.rates[0]:g} to {plan.rates[1]:g} Hz a patch may run at"
+    lines = [f"int {n}_refused(double rate, char *why, int size)", "{", "    hg_why w;",
+             f"    double coef[{max(1, len(plan.coef))}];", "    int bad;",
+             "    w.p = why; w.size = size; w.used = 0;", "    if (why != NULL && size > 0) why[0] = 0;",
+             f"    if (!(rate >= {low} && rate <= {high})) {{",
+             f"        hg_say(&w, {c_string(outside)}, rate);",
+             "        return 1;", "    }"]
+    if plan.fixed_rate:
+        lines += [f"    if (rate != {literal(plan.rate)}) {{",
+                  f"        hg_say(&w, {c_string(f'rate %g Hz: {plan.fixed_rate} ({plan.rate:g} Hz)')}, rate);",
+                  "        return 1;", "    }"]
+    lines += ["    memcpy(coef, hg_coef0, sizeof coef);",
+              "    bad = hg_stability(rate, &w);", "    bad |= hg_check_all(hg_live0, rate, &w);",
+              "    bad |= hg_derive_all(hg_live0, rate, coef, &w);", "    return bad;", "}", ""]
+    return "\n".join(lines)
 
 
 def new(plan):
     n, lines = plan.name, []
-    lines += [f"{n} *{n}_new(double rate)", "{", f"    {n} *s;"]
-    lines.append(f"    if (!(rate >= {literal(plan.rates[0])} && rate <= {literal(plan.rates[1])})) return NULL;")
-    if plan.fixed_rate:
-        lines.append(f"    if (rate != {literal(plan.rate)}) return NULL;   /* {plan.fixed_rate} */")
+    lines += [f"{n} *{n}_new(double rate)", "{", f"    {n} *s;", f"    if ({n}_refused(rate, NULL, 0)) return NULL;"]
     lines += [f"    s = ({n} *)calloc(1, sizeof *s);", "    if (s == NULL) return NULL;", "    s->rate = rate;",
               "    memcpy(s->live, hg_live0, sizeof s->live);", "    memcpy(s->next_live, hg_live0, sizeof s->next_live);",
               "    memcpy(s->coef, hg_coef0, sizeof s->coef);"]
     if plan.rate_slot is not None:
         lines.append(f"    s->coef[{plan.rate_slot}] = rate;")
-    lines.append("    if (hg_check_all(s->live, rate) || hg_derive_all(s->live, rate, s->coef)) { free(s); return NULL; }")
+    lines += ["    " + line for line in plan.rated]
+    lines.append("    (void)hg_derive_all(s->live, rate, s->coef, NULL);")
     for k, size in enumerate(plan.buffers):
         lines.append(f"    s->buf[{k}].n = hg_capacity({size});")
         lines.append(f"    s->buf[{k}].p = (double *)calloc((size_t)s->buf[{k}].n, sizeof(double));")
@@ -34,6 +53,7 @@ def reset(plan):
         lines.append(f"    memset(s->buf[{k}].p, 0, (size_t)s->buf[{k}].n * sizeof(double));")
     for k in range(len(plan.arrays)):
         lines.append(f"    memcpy(s->a{k}, hg_a{k}_init, sizeof s->a{k});")
+    lines += ["    " + line for line in plan.rows]      # the groups' rows at this rate
     return "\n".join(lines + ["}", ""])
 
 
@@ -84,11 +104,11 @@ def set_get(plan):
         "    memcpy(s->scratch_live, s->next_live, sizeof s->scratch_live);",
         "    memcpy(s->scratch_coef, s->coef, sizeof s->scratch_coef);",
         "    s->scratch_live[slot] = value;",
-        "    if (hg_derive_all(s->scratch_live, s->rate, s->scratch_coef)) return -3;",
+        "    if (hg_derive_all(s->scratch_live, s->rate, s->scratch_coef, NULL)) return -3;",
         "    s->next_live[slot] = value;", "    s->dirty = 1;", "    return 0;", "}", "",
         f"double {n}_get(const {n} *s, int index)", "{",
         f"    if (index < 0 || index >= {count}) return NAN;",
         f"    return hg_live_slot[index] >= 0 ? s->next_live[hg_live_slot[index]] : {n}_params[index].def;", "}", ""])
 
 
-__all__ = ["free", "new", "process", "reset", "set_get"]
+__all__ = ["free", "new", "process", "refused", "reset", "set_get"]

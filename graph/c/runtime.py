@@ -7,7 +7,11 @@ from ..denormals import FLUSH_BITS
 
 PRELUDE = r"""#include <limits.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdint.h>
+#ifndef HG_NO_STDIO
+#include <stdio.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 #if defined(__SSE2__) && !defined(HG_NO_FLUSH)
@@ -90,6 +94,36 @@ static long long hg_capacity(long long n)
     if (n < 1) n = 1;
     while (c < n) c <<= 1;
     return c;
+}
+
+/* why a rate is refused: problems written one a line into p (size bytes, NUL-ended, cut short);
+   hg_format is snprintf. With HG_NO_STDIO (a WebAssembly module, which imports nothing) nothing is
+   written: the refusal stands, unexplained. */
+typedef struct { char *p; int size; int used; } hg_why;
+static void hg_format(char *p, int size, const char *format, ...)
+{
+    va_list ap;
+    if (size <= 0) return;
+    p[0] = 0;
+    va_start(ap, format);
+#ifndef HG_NO_STDIO
+    vsnprintf(p, (size_t)size, format, ap);
+#endif
+    va_end(ap);
+}
+static void hg_say(hg_why *w, const char *format, ...)
+{
+    va_list ap;
+    int room, k = 0;
+    if (w == NULL || w->p == NULL || w->size <= 1 || w->used >= w->size - 1) return;
+    if (w->used > 0) { w->p[w->used++] = '\n'; w->p[w->used] = 0; }
+    room = w->size - w->used;
+    va_start(ap, format);
+#ifndef HG_NO_STDIO
+    k = vsnprintf(w->p + w->used, (size_t)room, format, ap);
+#endif
+    va_end(ap);
+    if (k > 0) w->used += k < room ? k : room - 1;
 }
 
 #if defined(__SSE2__) && !defined(HG_NO_FLUSH)

@@ -9,6 +9,7 @@ structure (a literal: `whole`, a curve's choice) would change at this rate; a `c
 when it would yield a problem. Either makes `NAME_new` refuse the rate (NULL).
 """
 import ast
+import inspect
 
 from ..blockplan import freeze
 from ..identifiers import ident
@@ -115,6 +116,30 @@ class Value:
         pass
 
 
+class Row:
+    """A row of a group's array computed from the rate (Group.rate_rows): the list or tuple
+    returned, written into `hg_out`."""
+
+    def on_return(self, tr, node):
+        if isinstance(node.value, (ast.List, ast.Tuple)):
+            items = [tr.expr(e) for e in node.value.elts]
+        else:
+            value = tr.expr(node.value)
+            listed = value.is_known and isinstance(value.known, (list, tuple))
+            items = list(value.items) if value.kind == "tuple" else [known(v) for v in value.known] if listed else None
+        if items is None or not all(v.scalar for v in items):
+            tr.refuse("a row of numbers is returned here (a list or a tuple)", node)
+        for k, v in enumerate(items):
+            tr.emit(f"hg_out[{k}] = {as_double(v)};")
+        tr.emit("return;")
+
+    def on_yield(self, tr, node):
+        tr.refuse("a generator", node)
+
+    def end(self, tr):
+        pass
+
+
 def _translate(lib, fn, params, mode, head):
     node = tree_of(fn)
     tr = FunctionTranslator(lib, node, fn.__code__.co_filename, fn.__globals__, params, mode)
@@ -152,4 +177,35 @@ def value_function(lib, bp, fn, name, kind):
                       f"static {ctype} {name}(const double *{LIVE}, double {{rate}})")
 
 
-__all__ = ["COEF", "LIVE", "Params", "check_function", "derive_function", "value_function"]
+def _bound(fn):
+    """(function, the values bound before its arguments): a class method's class, known."""
+    if inspect.ismethod(fn):
+        return fn.__func__, [known(fn.__self__)]
+    return fn, []
+
+
+def _rate_arguments(fn, first):
+    names = [a.arg for a in tree_of(fn).args.args]
+    values = list(first) + [Val("f")]
+    if len(names) != len(values):
+        raise Refused(fn.__code__.co_filename, fn.__code__.co_firstlineno,
+                      f"takes {len(names)} arguments where {len(values)} (the last: the rate) were expected")
+    return list(zip(names, values))
+
+
+def rate_function(lib, fn, name):
+    """`static double NAME(double fs)`: a value of a group that is a function of the rate (Number.of_rate)."""
+    fn, first = _bound(fn)
+    return _translate(lib, fn, _rate_arguments(fn, first), Value("f"), f"static double {name}(double {{rate}})")
+
+
+def row_function(lib, fn, args, name):
+    """`static void NAME(double fs, double *hg_out)`: a row of a group's array at rate fs,
+    `fn(*args, fs)` with `args` known (Group.rate_rows)."""
+    fn, first = _bound(fn)
+    return _translate(lib, fn, _rate_arguments(fn, first + [known(a) for a in args]), Row(),
+                      f"static void {name}(double {{rate}}, double *hg_out)")
+
+
+__all__ = ["COEF", "LIVE", "Params", "check_function", "derive_function", "rate_function", "row_function",
+           "value_function"]

@@ -22,7 +22,7 @@ import subprocess
 from .compiler import FLAGS, ExportError
 
 TARGET = "wasm32-wasi"
-API = ("new", "free", "reset", "process", "set", "get",
+API = ("new", "refused", "free", "reset", "process", "set", "get",
        "host_new", "host_input", "host_output", "host_process", "host_instance", "host_free")
 
 HOST = """\
@@ -228,7 +228,8 @@ def wasm_compiler():
 def build_wasm(sources, output, name):
     """Link `sources` into the module `output`, exporting NAME's API, malloc and free."""
     exports = [f"{name}_{f}" for f in API] + ["malloc", "free"]
-    command = wasm_compiler() + [f"--target={TARGET}", *FLAGS, "-nostartfiles", "-Wl,--no-entry"]
+    # HG_NO_STDIO: no snprintf (wasi-libc's stdio imports fd_write): NAME_refused says no words
+    command = wasm_compiler() + [f"--target={TARGET}", *FLAGS, "-DHG_NO_STDIO", "-nostartfiles", "-Wl,--no-entry"]
     command += [f"-Wl,--export={e}" for e in exports] + [str(s) for s in sources] + ["-o", str(output), "-lm"]
     proc = subprocess.run(command, capture_output=True, text=True)
     if proc.returncode != 0:

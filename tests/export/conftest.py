@@ -29,7 +29,12 @@ int main(int argc, char **argv)
     int nin = {NAME}_N_INPUTS, nout = {NAME}_N_OUTPUTS;
     double *all = NULL, **in, **out;
     {name} *s = {name}_new(rate);
-    if (s == NULL) {{ fputs("NULL\n", stderr); return 3; }}
+    if (s == NULL) {{
+        static char why[8192];
+        if (!{name}_refused(rate, why, (int)sizeof why)) {{ fputs("NULL but not refused\n", stderr); return 6; }}
+        fputs(why, stderr);
+        return 3;
+    }}
     in = calloc(nin + 1, sizeof *in);
     out = calloc(nout + 1, sizeof *out);
     for (c = 0; c < nin; c++) in[c] = calloc(block, sizeof(double));
@@ -74,7 +79,13 @@ class Built:
             args += [str(at), str(index), repr(float(value))]
         proc = subprocess.run(args, capture_output=True, timeout=120)
         assert proc.returncode == expect, proc.stderr.decode()
+        self.stderr = proc.stderr.decode("utf-8")
         return np.frombuffer(proc.stdout, dtype=np.float64).reshape(-1, len(self.lowered.outputs))
+
+    def refusal(self, rate):
+        """Why NAME_new refuses `rate` (NAME_refused's text): one problem a line."""
+        self.run(rate, 1, expect=3)
+        return self.stderr.splitlines()
 
 
 @pytest.fixture

@@ -57,6 +57,7 @@ def test_the_host_rate_is_refused_where_the_patch_refuses_it(c_export):
     built = c_export(KS)
     for rate in (50.0, 2e6, float("nan")):
         built.run(rate, 10, expect=3)          # NAME_new returned NULL
+    assert built.refusal(50.0) == ["rate 50 Hz: outside the 100 to 1e+06 Hz a patch may run at"]
     built.run(100.0, 10)                       # the schema's bounds are inclusive
     built.run(1e6, 10)
 
@@ -85,11 +86,11 @@ def test_plain_c99_without_a_writable_global(c_export, tmp_path):
     assert all(f"extern const karplus_strong_{t}" in header for t in ("port karplus_strong_ports",
                                                                        "param karplus_strong_params"))
     exported = sorted(s for s, k in kinds.items() if k in "TRD")
-    assert exported == sorted(f"karplus_strong_{f}" for f in ("new", "free", "reset", "process", "set", "get",
-                                                              "ports", "params"))
+    assert exported == sorted(f"karplus_strong_{f}" for f in ("new", "refused", "free", "reset", "process", "set",
+                                                              "get", "ports", "params"))
     undefined = {s for s, k in kinds.items() if k == "U"}
     assert undefined <= {"calloc", "free", "memcpy", "memset", "sin", "cos", "floor", "nearbyint", "exp", "fmod",
-                         "copysign", "pow", "sqrt", "log", "fabs", "sincos"}, undefined
+                         "copysign", "pow", "sqrt", "log", "fabs", "sincos", "vsnprintf"}, undefined
 
 
 def test_a_check_that_fails_at_the_host_rate_refuses_it(c_export, write_patch, same_bits):
@@ -108,13 +109,10 @@ def test_a_check_that_fails_at_the_host_rate_refuses_it(c_export, write_patch, s
         """)
     built = c_export(path)
     built.run(18000, 100, expect=3)
+    assert built.refusal(18000) == [f"{path.name}:5: block 'est' (velocity_estimator): its check refuses 18000 Hz "
+                                    "(hapticgraph check at that rate says why)"]
     text = path.read_text(encoding="utf-8").replace("rate: 44100", "rate: 19500")
     expected = hapticgraph.render(load(path, text=text), seconds=0.1).audio
     assert np.abs(expected).max() > 0.0
     assert same_bits(built.run(19500, 1950), expected)
 
-
-def test_a_lattice_runs_at_its_patch_rate_only(c_export):
-    built = c_export(ROOT / "patches" / "cymatic_string.yaml")
-    built.run(48000, 100, expect=3)
-    assert np.abs(built.run(44100, 4410)).max() > 0.0

@@ -40,11 +40,13 @@ def _device_probes(patch, lowered):
     return probes
 
 
-def python_run(path, lowered, seconds, block):
-    patch = hapticgraph.load(path)
+def python_run(path, lowered, seconds, block, patch=None):
+    """(audio, forces, device inputs, rate) of the patch at `path` (or `patch`, loaded already) run
+    by a Session for `seconds`, in blocks of `block`."""
+    patch = patch or hapticgraph.load(path)
     probes = _device_probes(patch, lowered)
     # not editable: a lattice runs its stencil, as `hapticgraph run` does (editable: the general path)
-    with hapticgraph.Session.open(path, probes=sorted(set(probes.values())), blocksize=block, editable=False) as s:
+    with hapticgraph.Session.open(patch, probes=sorted(set(probes.values())), blocksize=block, editable=False) as s:
         columns = {f"{d}.{c}": j for j, (d, c) in enumerate(s.program.ext_columns)}
         audio, forces, inputs = [], [], []
         for _ in range(round(seconds * s.rate) // block):
