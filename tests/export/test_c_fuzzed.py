@@ -2,8 +2,9 @@
 types and parameters within their declared ranges, random wiring with feedback through blocks that
 do not feed through, at 8, 44.1 or 48 kHz) exported to C: each one either exports and its C gives
 the bits of the Python run — every output of every block, wired to an audio_out added for the
-purpose — at its rate and at another (48 kHz, or 44.1 for a graph written at 48), or is refused cleanly: exit 2 and every line `FILE:LINE: message`, never a crash of the
-translator. 20 graphs, the same 20 on every run (derandomized)."""
+purpose — at its rate and at another (48 kHz, or 44.1 for a graph written at 48), or is refused
+cleanly: exit 2 and every line `FILE:LINE: message`, never a crash of the translator. 20 graphs,
+the same 20 on every run (derandomized)."""
 import importlib.util
 import itertools
 import re
