@@ -196,6 +196,7 @@ export class Instrument {
       this.camera.position.copy(kept.position);
       this.controls.target.copy(kept.target);
       this.controls.update();
+      this.camera.updateMatrixWorld();    // picking and screenOf right away, before the next frame
     } else this.frameAll();
     this.dirty = true;
   }
@@ -253,6 +254,7 @@ export class Instrument {
     this.camera.position.copy(target).addScaledVector(dir, dist);
     this.controls.target.copy(target);
     this.controls.update();
+    this.camera.updateMatrixWorld();
   }
 
   take(id, values) { const p = this.parts[id]; if (p) p.take(values); }
