@@ -12,17 +12,16 @@ export function el(tag, attrs = {}, ...children) {
   return e;
 }
 
-// the loader's FILE:LINE: message lines, shown until the next accepted command
+// the loader's FILE:LINE: message lines, shown until the next accepted command or dismissed
+// (its × button, or Esc)
 export function showError(lines) {
-  const box = $("#error");
-  box.textContent = lines.filter(Boolean).join("\n");
-  box.hidden = false;
+  $("#error-text").textContent = lines.filter(Boolean).join("\n");
+  $("#error").hidden = false;
 }
 
 export function clearError() {
-  const box = $("#error");
-  box.textContent = "";
-  box.hidden = true;
+  $("#error-text").textContent = "";
+  $("#error").hidden = true;
 }
 
 // a number as a person reads it: 4 significant digits, engineering range

@@ -119,6 +119,7 @@ function pace(drawn) {
 
 async function main() {
   tabs();
+  $("#error-close").onclick = () => clearError();
   link.on("cells", (f) => { if (!panels.modes.showing(f.lattice)) view.take(f.lattice, f.values); });
   const ctx = { send, view, link, studio, panels };
   const recovery = new Recovery(ctx);      // not a panel: it has nothing to update from the instrument
@@ -146,6 +147,7 @@ async function main() {
   panels.player = new Player(ctx);
   studio.audio = panels.player.stats;
   studio.tools = panels.tools;
+  studio.params = panels.params;
   apply(hello);
   measure();
   // a hidden page asks for no cell frames (the server then sends none), and for them again when seen

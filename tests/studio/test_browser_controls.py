@@ -1,0 +1,99 @@
+"""The studio's controls as a designer meets them (issue 33, item 4, the controls half), walked
+through in a real browser with the mouse: sliders that can be dragged and show what is in effect,
+refusals beside the control, edits shown pending, a lattice-less patch's tools, undo after a
+runaway, a join's tension asked, one drag one undo entry, tooltips and the help overlay, no 404.
+`hapticgraph studio` on loopback, Debian's chromium through Selenium."""
+import contextlib
+import pathlib
+import shutil
+import time
+
+from browser_env import artifacts, browser_or_skip, chromium, open_page, send, studio, until
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+PATCHES = ROOT / "patches"
+
+
+@contextlib.contextmanager
+def page(tmp_path, name, what):
+    """The studio on a copy of patches/NAME.yaml, and a browser on its page."""
+    browser_or_skip()
+    patch = tmp_path / f"{name}.yaml"
+    shutil.copyfile(PATCHES / f"{name}.yaml", patch)
+    out = artifacts(tmp_path, what)
+    with studio(patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        yield driver
+        driver.save_screenshot(str(out / f"{what}.png"))
+
+
+def in_effect(driver, block, param):
+    """The parameter's value as the server has it (what the sound plays)."""
+    reply = send(driver, {"cmd": "describe"})
+    return next(p for p in reply["result"]["params"] if (p["block"], p["param"]) == (block, param))
+
+
+def shown(driver, block, param):
+    """[the number box's value, the value the slider's position stands for, the slider element]."""
+    return driver.execute_script(
+        "const c = window.studio.params.controls.get(arguments[0]);"
+        "return [Number(c.box.value), c.sliderValue(), c.slider];", f"{block}.{param}")
+
+
+def drag(driver, slider, start_px, steps, step_px, pause=0.15):
+    """Press the slider `start_px` from its left end, move `steps` times by `step_px`, release."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    width = slider.rect["width"]
+    chain = ActionChains(driver, duration=20).move_to_element_with_offset(slider, round(start_px - width / 2), 0)
+    chain.click_and_hold()
+    for _ in range(steps):
+        chain.move_by_offset(step_px, 0).pause(pause)
+    chain.release().perform()
+
+
+def test_a_lattice_slider_drags_stays_inside_the_bound_and_shows_what_is_in_effect(tmp_path):
+    from selenium.webdriver.common.keys import Keys
+
+    with page(tmp_path, "cymatic_string", "controls_slider") as driver:
+        # the mass: each step changes the tension's stability bound; the slider stays under the mouse
+        _, _, slider = shown(driver, "str", "mass")
+        start = in_effect(driver, "str", "mass")["value"]
+        drag(driver, slider, 40, 10, 25)
+        until(lambda: abs(in_effect(driver, "str", "mass")["value"] - shown(driver, "str", "mass")[0]) < 1e-12, 60,
+              lambda: f"the mass in effect {in_effect(driver, 'str', 'mass')} is not the one shown "
+                      f"{shown(driver, 'str', 'mass')[:2]}")
+        box, at, same = shown(driver, "str", "mass")
+        assert driver.execute_script("return arguments[0].isConnected && arguments[0] === arguments[1]", slider, same)
+        assert abs(at - box) <= 1e-9 + 0.01 * box, (at, box)
+        # 250 px of a ~200 px track's log range: far more than the first step (one rebuild stops it there)
+        assert box > 20 * start, (start, box)
+
+        # the tension's top: strictly inside the stability bound, so accepted
+        _, _, slider = shown(driver, "str", "tension")
+        drag(driver, slider, slider.rect["width"] / 2, 3, round(slider.rect["width"] / 6 + 10))   # past its right end
+        t = until(lambda: (lambda p: p if abs(p["value"] - shown(driver, "str", "tension")[0]) < 1e-9 else None)(
+            in_effect(driver, "str", "tension")), 60,
+            lambda: f"the tension shown {shown(driver, 'str', 'tension')[:2]} is not in effect "
+                    f"{in_effect(driver, 'str', 'tension')}")
+        assert t["value"] < t["stable_max"] and t["value"] > 0.99 * t["stable_max"], t
+        assert not driver.find_element("css selector", "#error").is_displayed()
+
+        # a refused value: the box and the slider go back to the value in effect, the refusal is
+        # said beside the control, and the banner can be dismissed
+        before = in_effect(driver, "str", "tension")["value"]
+        box = driver.find_element("css selector", "#param-str-tension")
+        box.clear()
+        box.send_keys("1e9", Keys.ENTER)
+        note = until(lambda: driver.execute_script(
+            "const n = document.querySelector('#param-str-tension').closest('.param').querySelector('.refusal');"
+            "return n && !n.hidden && n.textContent"), 30, "no refusal beside the tension")
+        assert "str" in note
+        until(lambda: shown(driver, "str", "tension")[0] == before, 10,
+              lambda: f"the box keeps the refused value: {shown(driver, 'str', 'tension')[:2]}, in effect {before}")
+        assert abs(shown(driver, "str", "tension")[1] - before) <= 0.01 * before
+        assert in_effect(driver, "str", "tension")["value"] == before
+        banner = driver.find_element("css selector", "#error")
+        assert banner.is_displayed()
+        driver.find_element("css selector", "#error-close").click()
+        until(lambda: not banner.is_displayed(), 5, "the banner was not dismissed")
