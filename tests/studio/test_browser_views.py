@@ -249,7 +249,7 @@ def test_a_waveguide_patch_is_drawn_on_the_stage_and_the_modes_tab_says_what_it_
             "return {loop: w.layout.loop, samples: w.layout.samples, delays: w.layout.delays.map(d => [d.block, d.length]),"
             " nodes: Object.fromEntries(w.layout.nodes.map(n => [n.block, [n.x, n.z, n.onLoop]])),"
             " labels: [...document.querySelectorAll('#stage .label.wg')].filter(seen).map(e => e.textContent),"
-            " meshes: w.group.children.length};")
+            " meshes: w.group.children.length, legend: document.querySelector('#stage .legend').innerText};")
         tab(driver, "modes")
         modes = until(lambda: driver.execute_script("return document.querySelector('#modes-list').innerText"), 10,
                       "the modes tab is empty")
@@ -271,5 +271,6 @@ def test_a_waveguide_patch_is_drawn_on_the_stage_and_the_modes_tab_says_what_it_
     for text in ("r1 · 11 samples", "r2 · 27 samples", "l2 · 26 samples", "j: explicit_junction", "finger: haptic",
                  "mic: mic"):
         assert text in drawn["labels"], (text, drawn["labels"])       # labelled, and inside the stage
+    assert "delay line" in drawn["legend"] and "lattice cells: this patch has none" in drawn["legend"], drawn["legend"]
     assert "lattice" in modes and "97 samples" in modes, modes
     assert after == modes, after                                       # Compute says the same, not nothing

@@ -14,6 +14,9 @@ export function heat(v) {
   return [Math.round(255 * Math.min(1, 1.6 * v)), Math.round(255 * Math.max(0, 1.4 * v - 0.4)), Math.round(60 + 120 * Math.sin(Math.PI * Math.min(1, v * 1.2))), 255];
 }
 
+// heat() of 256 levels, looked up per pixel (the picture is painted again several times a second)
+const LUT = Uint8ClampedArray.from({ length: 256 * 4 }, (_, i) => heat(Math.floor(i / 4) / 255)[i % 4]);
+
 export class Spectrogram {
   constructor(canvas) {
     this.canvas = canvas;
@@ -65,7 +68,11 @@ export class Spectrogram {
       const img = new ImageData(n, ph);
       for (let x = 0; x < n; x++) {
         const db = cols[x].db;
-        for (let y = 0; y < ph; y++) img.data.set(heat(Math.min(1, Math.max(0, (db[bins[y]] + AMPLITUDE_DB - dbLow) / RANGE_DB))), 4 * (y * n + x));
+        for (let y = 0; y < ph; y++) {
+          const level = Math.round(255 * Math.min(1, Math.max(0, (db[bins[y]] + AMPLITUDE_DB - dbLow) / RANGE_DB)));
+          const o = 4 * (y * n + x), l = 4 * level;
+          img.data[o] = LUT[l]; img.data[o + 1] = LUT[l + 1]; img.data[o + 2] = LUT[l + 2]; img.data[o + 3] = 255;
+        }
       }
       this.image.width = n; this.image.height = ph;
       this.image.getContext("2d").putImageData(img, 0, 0);
