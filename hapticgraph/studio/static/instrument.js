@@ -3,9 +3,10 @@
 // as orange lines between the two cells, as in Cymatic's Virtual Luthiery (seed 001 §2.5).
 import * as THREE from "three";
 import { OrbitControls } from "./vendor/three/OrbitControls.js";
-import { Part, markerCanvas } from "./part.js";
+import { Part } from "./part.js";
 import { SPACING, flatten } from "./layout.js";
-import { stringLayout } from "./waveguide.js";
+import { stringLayout, stringScene } from "./waveguide.js";
+import { legend } from "./legend.js";
 
 const GAP = 3 * SPACING;
 const MARGIN = 16;                   // px kept free around the framed parts
@@ -16,45 +17,6 @@ function rendererName() {
   const gl = document.createElement("canvas").getContext("webgl2");
   const info = gl && gl.getExtension("WEBGL_debug_renderer_info");
   return info ? String(gl.getParameter(info.UNMASKED_RENDERER_WEBGL)) : "";
-}
-
-const WG = { delay: 0xe0b050, loop: 0xff9922, other: 0x8a96a8, mic: 0x3388ff, haptic: 0x22dd44, link: 0x5a6678 };
-
-// What the colours and markers mean, in the stage's corner (click to fold it away): a lattice's
-// or a waveguide's.
-function legend(kind = "lattice") {
-  const box = document.createElement("div");
-  box.className = "legend";
-  box.title = "What the colours and markers mean (click to fold)";
-  const row = (swatch, text) => {
-    const r = document.createElement("div");
-    r.append(swatch, Object.assign(document.createElement("span"), { textContent: text }));
-    return r;
-  };
-  const swatch = (cls) => Object.assign(document.createElement("i"), { className: cls });
-  const picture = (kind) => Object.assign(document.createElement("img"), { src: markerCanvas(kind).toDataURL(), className: "marker" });
-  if (kind === "waveguide") {
-    box.append(
-      row(swatch("sw-delay"), "delay line: its length in samples"),
-      row(swatch("sw-loop"), "block on the string's loop"),
-      row(swatch("sw-block"), "other block (wired as the lines show)"),
-      row(swatch("sw-haptic"), "haptic device"),
-      row(swatch("sw-mic"), "microphone"),
-      Object.assign(document.createElement("div"), { className: "note", textContent: "Lock, Cut, Join and the place tools act on lattice cells: this patch has none." }));
-    box.addEventListener("click", () => box.classList.toggle("folded"));
-    return box;
-  }
-  box.append(
-    row(swatch("sw-displacement"), "down · rest · up"),
-    row(swatch("sw-excitation"), "excitation"),
-    row(swatch("sw-mic"), "microphone"),
-    row(swatch("sw-join"), "join (a spring)"),
-    row(picture("locked"), "locked cell"),
-    row(swatch("sw-cut"), "cut cells (a hole)"),
-    row(picture("mass"), "mass edited: larger is heavier"),
-    row(swatch("sw-selection"), "selected"));
-  box.addEventListener("click", () => box.classList.toggle("folded"));
-  return box;
 }
 
 export class Instrument {
@@ -112,48 +74,7 @@ export class Instrument {
     if (this.waveguide) { this.scene.remove(this.waveguide.group); this.waveguide.labels.forEach((l) => l.el.remove()); }
     this.waveguide = null;
     if (!layout) return;
-    const group = new THREE.Group(), labels = [];
-    const label = (text, x, z, cls) => {
-      const e = Object.assign(document.createElement("div"), { className: `label wg ${cls}`, textContent: text });
-      this.canvas.parentElement.append(e);
-      labels.push({ el: e, at: new THREE.Vector3(x, 0, z) });
-    };
-    const line = new THREE.MeshBasicMaterial({ color: WG.delay }), thick = 0.12 * layout.rail;
-    for (const d of layout.delays) {
-      let longest = d.parts[0];
-      for (const [x0, z0, x1, z1] of d.parts) {
-        // a little short of its ends, so that where one line meets the next is seen
-        const bar = new THREE.Mesh(new THREE.BoxGeometry(Math.max(Math.abs(x1 - x0) - 0.5, thick), thick, thick), line);
-        bar.position.set((x0 + x1) / 2, 0, (z0 + z1) / 2);
-        group.add(bar);
-        if (Math.abs(x1 - x0) > Math.abs(longest[2] - longest[0])) longest = [x0, z0, x1, z1];
-      }
-      if (d.parts.length > 1) {             // a line round the turn: the rails joined where it turns
-        const [a, b] = [d.parts[0], d.parts[d.parts.length - 1]];
-        const bar = new THREE.Mesh(new THREE.BoxGeometry(thick, thick, Math.abs(b[1] - a[3]) + thick), line);
-        bar.position.set(a[2], 0, (a[3] + b[1]) / 2);
-        group.add(bar);
-      }
-      const [x0, z0, x1] = longest;
-      label(`${d.block} · ${d.length} samples`, (x0 + x1) / 2, z0 + Math.sign(z0) * 0.9 * layout.rail, "delay");
-    }
-    const where = Object.fromEntries(layout.nodes.map((n) => [n.block, n]));
-    const ball = new THREE.SphereGeometry(0.35 * layout.rail, 16, 12);
-    for (const n of layout.nodes) {
-      const colour = n.onLoop ? WG.loop : WG[n.type] || WG.other;
-      const m = new THREE.Mesh(ball, new THREE.MeshBasicMaterial({ color: colour }));
-      m.position.set(n.x, 0, n.z);
-      m.userData = { block: n.block };
-      group.add(m);
-      label(`${n.block}: ${n.type}`, n.x, n.z - 0.45 * layout.rail, "node");
-    }
-    const pts = [];
-    for (const [a, b, src, dst] of layout.links) {
-      const p = layout.ports[src] || (where[a] && [where[a].x, where[a].z]), q = layout.ports[dst] || (where[b] && [where[b].x, where[b].z]);
-      if (p && q) pts.push(p[0], 0, p[1], q[0], 0, q[1]);
-    }
-    group.add(new THREE.LineSegments(new THREE.BufferGeometry().setAttribute("position", new THREE.Float32BufferAttribute(pts, 3)),
-      new THREE.LineBasicMaterial({ color: WG.link })));
+    const { group, labels } = stringScene(layout, this.canvas.parentElement);
     this.scene.add(group);
     this.waveguide = { layout, group, labels };
     this.cameras = {};

@@ -4,6 +4,8 @@
 // as its delay; the blocks on the loop are nodes on the string (a junction met twice, once per
 // direction, is one node between the rails), the other blocks stand in rows above, over the
 // points they connect to. Distances are in samples of delay.
+import * as THREE from "three";
+
 const BUDGET = 200000;       // edges walked looking for the longest loop (a small patch needs few)
 
 function ends(text) {
@@ -109,4 +111,54 @@ export function stringLayout(graph, lengths) {
     for (const n of fresh) { nodes.push(n); where[n.block] = [n.x, n.z]; placed.add(n.block); }
   }
   return { loop: order.map((st) => st.block), samples, rail, delays, nodes, links, ports };
+}
+
+const WG = { delay: 0xe0b050, loop: 0xff9922, other: 0x8a96a8, mic: 0x3388ff, haptic: 0x22dd44, link: 0x5a6678 };
+
+// The layout as three.js objects (delay lines as bars, blocks as balls, connections as lines) and
+// the HTML labels put in `parent`: {group, labels: [{el, at}]}, `at` where a label stands.
+export function stringScene(layout, parent) {
+  const group = new THREE.Group(), labels = [];
+  const label = (text, x, z, cls) => {
+    const e = Object.assign(document.createElement("div"), { className: `label wg ${cls}`, textContent: text });
+    parent.append(e);
+    labels.push({ el: e, at: new THREE.Vector3(x, 0, z) });
+  };
+  const line = new THREE.MeshBasicMaterial({ color: WG.delay }), thick = 0.12 * layout.rail;
+  for (const d of layout.delays) {
+    let longest = d.parts[0];
+    for (const [x0, z0, x1, z1] of d.parts) {
+      // a little short of its ends, so that where one line meets the next is seen
+      const bar = new THREE.Mesh(new THREE.BoxGeometry(Math.max(Math.abs(x1 - x0) - 0.5, thick), thick, thick), line);
+      bar.position.set((x0 + x1) / 2, 0, (z0 + z1) / 2);
+      group.add(bar);
+      if (Math.abs(x1 - x0) > Math.abs(longest[2] - longest[0])) longest = [x0, z0, x1, z1];
+    }
+    if (d.parts.length > 1) {             // a line round the turn: the rails joined where it turns
+      const [a, b] = [d.parts[0], d.parts[d.parts.length - 1]];
+      const bar = new THREE.Mesh(new THREE.BoxGeometry(thick, thick, Math.abs(b[1] - a[3]) + thick), line);
+      bar.position.set(a[2], 0, (a[3] + b[1]) / 2);
+      group.add(bar);
+    }
+    const [x0, z0, x1] = longest;
+    label(`${d.block} · ${d.length} samples`, (x0 + x1) / 2, z0 + Math.sign(z0) * 0.9 * layout.rail, "delay");
+  }
+  const where = Object.fromEntries(layout.nodes.map((n) => [n.block, n]));
+  const ball = new THREE.SphereGeometry(0.35 * layout.rail, 16, 12);
+  for (const n of layout.nodes) {
+    const colour = n.onLoop ? WG.loop : WG[n.type] || WG.other;
+    const m = new THREE.Mesh(ball, new THREE.MeshBasicMaterial({ color: colour }));
+    m.position.set(n.x, 0, n.z);
+    m.userData = { block: n.block };
+    group.add(m);
+    label(`${n.block}: ${n.type}`, n.x, n.z - 0.45 * layout.rail, "node");
+  }
+  const pts = [];
+  for (const [a, b, src, dst] of layout.links) {
+    const p = layout.ports[src] || (where[a] && [where[a].x, where[a].z]), q = layout.ports[dst] || (where[b] && [where[b].x, where[b].z]);
+    if (p && q) pts.push(p[0], 0, p[1], q[0], 0, q[1]);
+  }
+  group.add(new THREE.LineSegments(new THREE.BufferGeometry().setAttribute("position", new THREE.Float32BufferAttribute(pts, 3)),
+    new THREE.LineBasicMaterial({ color: WG.link })));
+  return { group, labels };
 }
