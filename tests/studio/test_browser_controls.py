@@ -97,3 +97,53 @@ def test_a_lattice_slider_drags_stays_inside_the_bound_and_shows_what_is_in_effe
         assert banner.is_displayed()
         driver.find_element("css selector", "#error-close").click()
         until(lambda: not banner.is_displayed(), 5, "the banner was not dismissed")
+
+
+def cell_on_screen(driver, lattice, flat, deadline_s=30):
+    """(x, y) offsets from the canvas's centre where the page draws cell `flat` of `lattice`, once
+    its own picking finds that cell there (the side panels may still narrow the canvas)."""
+    script = ("const v = window.studio.view, r = v.canvas.getBoundingClientRect();"
+              "const p = v.screenOf(arguments[0], arguments[1]), hit = v.pick(p.x, p.y);"
+              "return [Math.round(p.x - r.left - r.width / 2), Math.round(p.y - r.top - r.height / 2),"
+              "        hit !== null && hit.lattice === arguments[0] && hit.flat === arguments[1]];")
+    seen = []
+
+    def steady():
+        seen.append(driver.execute_script(script, lattice, flat))
+        last = seen[-3:]
+        return len(last) == 3 and last[-1][2] and all(abs(a[0] - last[-1][0]) <= 2 and abs(a[1] - last[-1][1]) <= 2
+                                                      for a in last)
+    until(steady, deadline_s, lambda: f"cell {flat} of lattice {lattice} is not where the page draws it: {seen[-3:]}")
+    return seen[-1][0], seen[-1][1]
+
+
+def click_cell(driver, lattice, flat):
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    x, y = cell_on_screen(driver, lattice, flat)
+    ActionChains(driver).move_to_element_with_offset(driver.find_element("css selector", "#view"), x, y).click().perform()
+
+
+def test_an_edit_is_shown_pending_and_a_second_click_meanwhile_adds_nothing(tmp_path):
+    from selenium.webdriver.support.ui import Select
+
+    with page(tmp_path, "cymatic_sheet", "controls_pending") as driver:
+        Select(driver.find_element("css selector", "#look")).select_by_value("top")
+        Select(driver.find_element("css selector", "#tool")).select_by_value("mic")
+        Select(driver.find_element("css selector", "#place-which")).select_by_value("")      # + new microphone
+        indicator = driver.find_element("css selector", "#pending")
+        assert not indicator.is_displayed()
+        click_cell(driver, 0, 2 * 16 + 3)
+        assert indicator.is_displayed(), "nothing shows that the new microphone is being added"
+        began = time.monotonic()
+        click_cell(driver, 0, 9 * 16 + 12)                   # a second click while the first lands
+        until(lambda: not indicator.is_displayed(), 120, "the edit never landed")
+        landed = time.monotonic() - began
+        mics = driver.execute_script("return window.studio.desc.microphones.map((m) => [m.block, m.cell])")
+        which = driver.execute_script("return document.querySelector('#place-which').value")
+        undo = send(driver, {"cmd": "state"})["result"]["undo"]
+    assert landed > 0.2, landed          # the second click came while the first was pending
+    assert mics == [["mic1", "sheet[8, 11]"], ["mic2", "sheet[5, 13]"], ["mic3", "sheet[2, 3]"]], mics
+    assert undo == 1
+    # the tool now moves the microphone just placed: a further click adds no other
+    assert which == "mic3", which

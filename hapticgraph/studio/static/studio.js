@@ -47,9 +47,33 @@ function cellRef(text, byName) {
   return { lattice: l.id, flat: flatten(l.shape, idx) };
 }
 
+// commands that change the patch or the sound (a live parameter's `set` lands at once: not counted)
+const EDITS = new Set(["set", "lock", "unlock", "cut", "cells", "join", "place", "remove", "map", "text",
+  "undo", "redo", "restart", "save", "recover"]);
+
+function slow(command) {
+  if (!EDITS.has(command.cmd)) return false;
+  if (command.cmd !== "set" || !studio.desc) return true;
+  const p = studio.desc.params.find((x) => x.block === command.block && x.param === command.param);
+  return !(p && p.live);
+}
+
+// edits sent and not yet answered: shown (#pending, body[data-pending]), and the stage's tools
+// take no click meanwhile
+function pending(delta) {
+  studio.pending += delta;
+  const on = studio.pending > 0;
+  $("#pending").hidden = !on;
+  document.body.toggleAttribute("data-pending", on);
+  if (panels.tools) panels.tools.busy(on);
+}
+
 // a command through the link; a refused one shows its error, an accepted one clears it
 async function send(command) {
-  const reply = await link.send(command);
+  const counted = slow(command);
+  if (counted) pending(1);
+  let reply;
+  try { reply = await link.send(command); } finally { if (counted) pending(-1); }
   if (reply.ok) clearError();
   else showError(reply.errors || [reply.error]);
   return reply;
@@ -57,7 +81,7 @@ async function send(command) {
 
 const studio = {
   send: (command) => link.send(command),
-  fps: 0, received: 0, renders: 0, desc: null, view, link,
+  fps: 0, received: 0, renders: 0, desc: null, view, link, pending: 0,
 };
 window.studio = studio;
 

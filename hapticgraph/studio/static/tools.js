@@ -11,6 +11,8 @@ export class Tools {
     this.ctx = ctx;
     this.selection = [];        // [{lattice, flat}]
     this.joinFirst = null;
+    this.waiting = false;       // an edit is being applied: the stage takes no click meanwhile
+    this.placed = null;         // a new microphone or excitation just asked for: chosen once it exists
     this._pointer();
     $("#tool").addEventListener("change", () => { this.joinFirst = null; this._fillWhich(); });
     $("#place-which").addEventListener("change", () => this._showPan());
@@ -68,11 +70,19 @@ export class Tools {
     which.hidden = !(tool === "mic" || tool === "excite");
     $("#remove").hidden = which.hidden;
     if ([...which.options].some((o) => o.value === keep)) which.value = keep;
+    // after "+ new": the one just placed, so that the next click moves it rather than adds another
+    if (this.placed && [...which.options].some((o) => o.value === this.placed)) { which.value = this.placed; this.placed = null; }
     this._showPan();
   }
 
+  // an edit pending (on) or landed: the tools that edit wait for it
+  busy(on) {
+    this.waiting = on;
+    if (this.desc) { this.select(this.selection); this._showPan(); }
+  }
+
   _showPan() {
-    $("#remove").disabled = !$("#place-which").value || $("#place-which").value.startsWith("+");
+    $("#remove").disabled = this.waiting || !$("#place-which").value || $("#place-which").value.startsWith("+");
     const mic = this.desc.microphones.find((m) => m.block === $("#place-which").value && $("#tool").value === "mic");
     $("#mic-pan-row").hidden = !mic;
     if (mic) { $("#mic-pan-name").textContent = mic.block; $("#mic-pan").value = mic.pan; $("#mic-pan-value").textContent = fmt(mic.pan); }
@@ -110,9 +120,13 @@ export class Tools {
 
   // a click at client coordinates, with the current tool
   click(x, y, add = false) {
+    const tool = $("#tool").value;
+    if (this.waiting && tool !== "select") {
+      $("#selection-info").textContent = "wait: the last edit is being applied";
+      return null;
+    }
     const cell = this.ctx.view.pick(x, y);
     if (!cell) { if (!add) this.select([]); return null; }
-    const tool = $("#tool").value;
     if (tool === "mic" || tool === "excite") return this._place(tool, cell);
     if (tool === "join") {
       if (!this.joinFirst) { this.joinFirst = cell; this.select([cell]); return null; }
@@ -129,8 +143,8 @@ export class Tools {
     const n = cells.length;
     $("#selection-info").textContent = n === 0 ? "" : n === 1 ? this.name(cells[0]) : `${n} cells`;
     $("#cell-edit-what").textContent = n === 0 ? "none" : $("#selection-info").textContent;
-    $("#join").disabled = n !== 2;
-    for (const id of ["lock", "unlock", "cut", "edit-apply"]) $(`#${id}`).disabled = n === 0;
+    $("#join").disabled = n !== 2 || this.waiting;
+    for (const id of ["lock", "unlock", "cut", "edit-apply"]) $(`#${id}`).disabled = n === 0 || this.waiting;
     this._fillEdit();
   }
 
@@ -145,11 +159,15 @@ export class Tools {
     for (const id of EDITS) delete $(id).dataset.touched;
   }
 
-  _place(tool, cell) {
+  async _place(tool, cell) {
     const which = $("#place-which").value, name = this.name(cell);
-    if (tool === "mic" && which === "") return this.ctx.send({ cmd: "place", block: this._fresh("mic"), type: "mic", cell: name, params: { pan: 0 } });
-    if (which.startsWith("+")) return this.ctx.send({ cmd: "place", block: this._fresh(which.slice(1)), type: which.slice(1), cell: name });
-    return this.ctx.send({ cmd: "place", block: which, cell: name });
+    if (which !== "" && !which.startsWith("+")) return this.ctx.send({ cmd: "place", block: which, cell: name });
+    const type = which === "" ? "mic" : which.slice(1), block = this._fresh(type);
+    this.placed = block;
+    const r = await this.ctx.send({ cmd: "place", block, type, cell: name, ...(type === "mic" ? { params: { pan: 0 } } : {}) });
+    if (!r.ok) this.placed = null;
+    else this._fillWhich();
+    return r;
   }
 
   _fresh(stem) {
