@@ -147,3 +147,25 @@ def test_an_edit_is_shown_pending_and_a_second_click_meanwhile_adds_nothing(tmp_
     assert undo == 1
     # the tool now moves the microphone just placed: a further click adds no other
     assert which == "mic3", which
+
+
+LATTICE_TOOLS = ("#tool", "#lock", "#unlock", "#cut", "#join", "#clear-selection", "#edit-mass", "#edit-damping",
+                 "#edit-tension", "#edit-apply")
+
+
+def test_a_patch_without_a_lattice_disables_the_lattice_tools_and_says_what_they_apply_to(tmp_path):
+    with page(tmp_path, "fig8_pluck_damp", "controls_waveguide") as driver:
+        assert driver.execute_script("return window.studio.desc.lattices.length") == 0
+        enabled = [s for s in LATTICE_TOOLS if driver.find_element("css selector", s).is_enabled()]
+        note = driver.find_element("css selector", "#tools-note")
+        shown_note = note.is_displayed() and note.text
+        tip = driver.find_element("css selector", "#tool").get_attribute("title")
+    assert enabled == [], enabled
+    assert shown_note and "lattice" in shown_note and "Parameters" in shown_note, shown_note
+    assert "lattice" in tip, tip
+
+
+def test_a_lattice_patch_has_its_tools(tmp_path):
+    with page(tmp_path, "cymatic_string", "controls_lattice_tools") as driver:
+        assert driver.find_element("css selector", "#tool").is_enabled()
+        assert not driver.find_element("css selector", "#tools-note").is_displayed()

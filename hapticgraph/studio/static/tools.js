@@ -33,10 +33,20 @@ export class Tools {
 
   update(desc) {
     this.desc = desc;
+    this._forLattices(desc.lattices.length > 0);
     this._fillLayers();
     this.selection = this.selection.filter((c) => desc.byId[c.lattice] && !desc.byId[c.lattice].cutFlat.includes(c.flat));
     this.select(this.selection);
     this._fillWhich();
+  }
+
+  // a patch without a lattice or cell (waveguides): the tools that act on cells are off, and say so
+  _forLattices(any) {
+    this.none = !any;
+    $("#tools-note").hidden = any;
+    $("#cell-edit").hidden = !any;
+    for (const id of ["#tool", "#place-which", "#clear-selection", "#edit-mass", "#edit-damping", "#edit-tension"]) $(id).disabled = !any;
+    if (!any && $("#tool").value !== "select") { $("#tool").value = "select"; this.joinFirst = null; }
   }
 
   // the layer choice: every block's layers along its first axis
@@ -143,8 +153,8 @@ export class Tools {
     const n = cells.length;
     $("#selection-info").textContent = n === 0 ? "" : n === 1 ? this.name(cells[0]) : `${n} cells`;
     $("#cell-edit-what").textContent = n === 0 ? "none" : $("#selection-info").textContent;
-    $("#join").disabled = n !== 2 || this.waiting;
-    for (const id of ["lock", "unlock", "cut", "edit-apply"]) $(`#${id}`).disabled = n === 0 || this.waiting;
+    $("#join").disabled = n !== 2 || this.waiting || this.none;
+    for (const id of ["lock", "unlock", "cut", "edit-apply"]) $(`#${id}`).disabled = n === 0 || this.waiting || this.none;
     this._fillEdit();
   }
 
