@@ -274,3 +274,18 @@ def test_a_waveguide_patch_is_drawn_on_the_stage_and_the_modes_tab_says_what_it_
     assert "delay line" in drawn["legend"] and "lattice cells: this patch has none" in drawn["legend"], drawn["legend"]
     assert "lattice" in modes and "97 samples" in modes, modes
     assert after == modes, after                                       # Compute says the same, not nothing
+
+
+@pytest.mark.parametrize("name, loop", [
+    ("fig7_bowed_string", ["nut", "r1", "j", "r2", "bridge", "l1", "j", "l2"]),    # the bow off the loop, above j
+    ("feedback_comb", ["mix", "line", "fb"]),                                      # mix and fb both at the turn
+])
+def test_other_waveguides_take_no_detour_and_no_two_blocks_share_a_place(tmp_path, name, loop):
+    with page(tmp_path, name, f"waveguide_{name}") as driver:
+        layout = until(lambda: driver.execute_script(
+            "const w = window.studio.view.waveguide; return w && w.layout"), 10, "nothing drawn")
+    assert layout["loop"] == loop, layout["loop"]
+    places = [(n["block"], n["x"], n["z"]) for n in layout["nodes"]]
+    for i, (a, xa, za) in enumerate(places):
+        for b, xb, zb in places[i + 1:]:
+            assert abs(xa - xb) > 1 or abs(za - zb) > 1, (a, b, places)

@@ -34,7 +34,7 @@ export class Modes {
     const others = [...new Set(loop.filter((b) => !lengths[b]))];
     const names = loop.concat(loop[0]).join(" → ");
     list.append(el("p", { class: "loop", text: `Its longest loop through delay lines, ${names}, holds ${samples} samples in its delay lines`
-      + `${others.length ? ` (${others.join(", ")} may add their own delay)` : ""}: a round trip of at least ${fmt(samples / rate * 1000)} ms, `
+      + `${others.length ? `, and ${others.join(", ")} on it can only add to them` : ""}: a round trip of at least ${fmt(samples / rate * 1000)} ms, `
       + `so its fundamental is at most ${fmt(rate)}/${samples} = ${fmt(rate / samples)} Hz.` }));
   }
 

@@ -29,7 +29,12 @@ export function longestLoop(graph, lengths) {
   const walk = (node, start, w) => {
     for (const e of next.get(node) || []) {
       if (--budget < 0) return;
-      if (e.b === start) { if (w + e.w > best.w) best = { w: w + e.w, steps: [...steps, e.step].filter(Boolean) }; continue; }
+      if (e.b === start) {
+        // the most delay; of two loops as long, the one through fewer blocks (no detour)
+        const mine = [...steps, e.step].filter(Boolean);
+        if (w + e.w > best.w || (w + e.w === best.w && mine.length < best.steps.length)) best = { w: w + e.w, steps: mine };
+        continue;
+      }
       if (on.has(e.b) || e.b < start) continue;        // each loop once: from its smallest node
       on.add(e.b); steps.push(e.step);
       walk(e.b, start, w + e.w);
@@ -87,6 +92,11 @@ export function stringLayout(graph, lengths) {
   const types = Object.fromEntries(graph.blocks.map((b) => [b.name, b.type]));
   const nodes = Object.entries(visits).map(([block, ps]) => ({ block, type: types[block], onLoop: true,
     x: ps.reduce((a, p) => a + p[0], 0) / ps.length, z: ps.length > 1 ? 0 : ps[0][1] }));
+  // blocks met at the same point (at the turn, with nothing but a delay line between them) stacked
+  for (const n of nodes) {
+    const same = nodes.filter((m) => Math.abs(m.x - n.x) < 0.5 && Math.abs(m.z - n.z) < 0.5);
+    if (same.length > 1 && same[0] === n) same.forEach((m, i) => { m.z += (i - (same.length - 1) / 2) * 0.8 * rail; });
+  }
   const where = Object.fromEntries(nodes.map((n) => [n.block, [n.x, n.z]]));
   // the other blocks, in rows above the string by their distance from it
   const links = [], linked = {};
