@@ -124,24 +124,34 @@ FREE_REGION = """
 const v = window.studio.view, c = v.canvas.getBoundingClientRect();
 const bar = document.querySelector('#toolbar').getBoundingClientRect();
 const box = document.querySelector('#cell-edit').getBoundingClientRect();
+const key = document.querySelector('#stage .legend').getBoundingClientRect();
 const cells = [];
 for (const p of v.parts) for (let f = 0; f < p.n; f++) { const s = v.screenOf(p.id, f); cells.push([s.x, s.y]); }
-return {canvas: [c.left, c.top, c.right, c.bottom], bar: bar.bottom, box: [box.left, box.top, box.right, box.bottom], cells};
+return {canvas: [c.left, c.top, c.right, c.bottom], bar: bar.bottom, boxes: [box, key].map(r => [r.left, r.top, r.right, r.bottom]),
+        cells};
 """
 CAMERA = "const v = window.studio.view; return [v.camera.position.toArray(), v.controls.target.toArray()];"
 
 
 def _hidden_cells(seen, margin=4):
-    """The cells drawn outside the canvas, under the toolbar or under the selection box."""
+    """The cells drawn outside the canvas, under the toolbar, the selection box or the legend."""
     left, top, right, bottom = seen["canvas"]
-    bl, bt, br, bb = seen["box"]
     out = []
     for x, y in seen["cells"]:
         if not (left + margin <= x <= right - margin and max(top, seen["bar"]) + margin <= y <= bottom - margin):
             out.append((x, y))
-        elif bl - margin <= x <= br + margin and bt - margin <= y <= bb + margin:
+        elif any(bl - margin <= x <= br + margin and bt - margin <= y <= bb + margin for bl, bt, br, bb in seen["boxes"]):
             out.append((x, y))
     return out
+
+
+@pytest.mark.parametrize("name", ["cymatic_string", "cymatic_sheet", "hyper_4d"])
+def test_every_cell_is_in_view_at_start(tmp_path, name):
+    with page(tmp_path, name, f"start_{name}") as driver:
+        time.sleep(0.5)
+        seen = driver.execute_script(FREE_REGION)
+    hidden = _hidden_cells(seen)
+    assert not hidden, f"{len(hidden)} of {len(seen['cells'])} cells hidden at start, e.g. {hidden[:5]}"
 
 
 def test_the_block_camera_shows_everything_keeps_the_users_view_and_zooms_to_the_cursor(tmp_path):
