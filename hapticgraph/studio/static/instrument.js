@@ -1,6 +1,8 @@
 // The 3-D view: every lattice of the patch side by side, rotated and zoomed with OrbitControls,
-// excitations as green rings and microphones as vertical blue lines through their cells, joins
-// as orange lines between the two cells, as in Cymatic's Virtual Luthiery (seed 001 §2.5).
+// excitations as green rings and microphones as vertical blue lines through their cells (named
+// above them), joins as orange lines between the two cells, as in Cymatic's Virtual Luthiery
+// (seed 001 §2.5); a patch without lattices as the string its delay lines make (waveguide.js).
+// A legend in the corner says what each colour and marker means.
 import * as THREE from "three";
 import { OrbitControls } from "./vendor/three/OrbitControls.js";
 import { Part } from "./part.js";
