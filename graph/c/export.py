@@ -19,7 +19,7 @@ from .drivers import column_drivers, input_kind
 from .kernel import KERNEL_FILE, translate_kernel
 from .library import Library
 from .runtime import PRELUDE
-from .setup import check_function, derive_function, rate_function, row_function, value_function
+from .setup import check_function, constant, derive_function, rate_function, row_function, value_function
 from .stability import stability_source
 from .values import Refused, array_kind, literal
 
@@ -79,7 +79,7 @@ class CPlan:
         if problems:
             raise PatchError(problems)
         try:
-            kernel, _ = translate_kernel(self.prog, self.lib)
+            kernel, _ = translate_kernel(self.prog, self.lib, self._fixed_rings())
         except Refused as exc:
             raise PatchError([self._refused(exc)]) from None
         for bp in self.prog.plans:
@@ -103,6 +103,21 @@ class CPlan:
         parts += [api.setup_calls(self), instance.free(self), instance.reset(self), instance.refused(self),
                   instance.new(self), instance.process(self), instance.set_get(self)]
         return "\n".join(parts)
+
+    def _fixed_rings(self):
+        """Indices of the buffers whose size is the same at every rate: a ring's mask is then the
+        literal numba is given (a register kept free in the sample loop, as numba keeps it)."""
+        fixed, k = set(), 0
+        for bp in self.prog.plans:
+            for b in bp.cls.buffers:
+                try:
+                    size = constant(Library(), bp, b.size) if callable(b.size) else b.size
+                except Refused:
+                    size = None         # said where the size is translated for NAME_new
+                if size is not None and len(self.prog.buffers[k]) == _capacity(size):
+                    fixed.add(k)
+                k += 1
+        return frozenset(fixed)
 
     def _rates(self):
         """What the fused groups derive from the rate, translated: their numbers (Number.of_rate,
@@ -173,6 +188,14 @@ class CPlan:
         if exc.file.startswith("<") and users:
             return Problem(self.patch.file, self.patch.blocks[users[0]].line, f"{message} ({exc.file})")
         return Problem(exc.file, exc.line, message)
+
+
+def _capacity(size):
+    """hg_capacity (graph/c/runtime.py): a ring's length for `size`, a power of two."""
+    c, n = 1, max(1, int(size))
+    while c < n:
+        c <<= 1
+    return c
 
 
 def _structural(bp):

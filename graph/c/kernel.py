@@ -9,7 +9,7 @@ import importlib
 import math
 
 from .. import codegen
-from .expr import Marker
+from .expr import Marker, cname
 from .library import Returns
 from .stmt import FunctionTranslator
 from .values import C_TYPES, Refused, Val, array_kind
@@ -65,8 +65,9 @@ def kernel_parameters(prog, node):
     return list(zip(names, kinds))
 
 
-def translate_kernel(prog, lib):
-    """(the C definition of `hg_kernel`, its parameters) for the program."""
+def translate_kernel(prog, lib, fixed=frozenset()):
+    """(the C definition of `hg_kernel`, its parameters) for the program. `fixed`: the indices of
+    the buffers whose length is the same at every rate (their masks stay literals, as numba's)."""
     source, _ = codegen.generate(prog)
     tree = ast.parse(source, KERNEL_FILE)
     names, node = kernel_names(tree)
@@ -75,6 +76,8 @@ def translate_kernel(prog, lib):
     params = kernel_parameters(prog, node)
     returns = Returns()
     tr = FunctionTranslator(lib, node, KERNEL_FILE, names, params, returns)
+    first = len(params) - len(prog.buffer_nodes) - len(prog.array_nodes)
+    lib.fixed_rings = (tr, frozenset(cname(params[first + k][0]) for k in fixed))
     decls, body = tr.translate()
     args = ", ".join(f"{C_TYPES[v.kind]} {tr.param_name(n)}" for n, v in params)
     head = f"static long long hg_kernel({args})"

@@ -81,14 +81,16 @@ class Returns:
             tr.refuse("it may end without returning its value", tr.node)
 
 
-def _masks(names, args):
-    """Each `X_mask` argument beside a buffer argument `X` read from that buffer's length."""
+def _masks(names, args, fixed=()):
+    """Each `X_mask` argument beside a buffer argument `X` read from that buffer's length, unless
+    the ring is one of `fixed` (C names of rings whose length is the same at every rate: its mask
+    stays the literal numba is given)."""
     args = list(args)
     for k, name in enumerate(names[:len(args)]):
         base = name[:-5] if name.endswith("_mask") else None
         if base in names and names.index(base) < len(args):
             ring = args[names.index(base)]
-            if ring.kind == "arr" and args[k].is_known:
+            if ring.kind == "arr" and args[k].is_known and ring.c not in fixed:
                 args[k] = Val("i", f"({ring.c}.n - 1)", nonneg=True)
     return args
 
@@ -98,6 +100,8 @@ class Library:
 
     def __init__(self):
         self.made, self.order, self.active, self.taken = {}, [], set(), set()
+        # (the kernel's translator, C names of its rings of one length at every rate): see _masks
+        self.fixed_rings = (None, frozenset())
 
     def call(self, fn, args, caller):
         """The value of calling fn (a Python function) with these values."""
@@ -115,7 +119,8 @@ class Library:
             caller.refuse(f"{fn.__qualname__}() called with {len(args)} arguments")
         missing = len(names) - len(args)
         args = list(args) + ([known(d) for d in defaults[len(defaults) - missing:]] if missing else [])
-        args = _masks(names, args)
+        kernel, fixed = self.fixed_rings
+        args = _masks(names, args, fixed if caller is kernel else ())
         key = (fn, tuple(("known", type(a.known).__name__, repr(a.known)) if a.is_known else (a.kind, a.nonneg)
                          for a in args))
         made = self.made.get(key)

@@ -98,15 +98,17 @@ class Checked:
 
 
 class Value:
-    """A lambda's value (a state's first value, a ring's size), returned."""
+    """A lambda's value (a state's first value, a ring's size), returned; `known`: the values
+    returned that were known while translating (None for one that was not)."""
 
     def __init__(self, kind):
-        self.kind = kind
+        self.kind, self.known = kind, []
 
     def on_return(self, tr, node):
         value = tr.expr(node.value)
         if not value.scalar:
             tr.refuse("the value is not a number", node)
+        self.known.append(value.known if value.is_known else None)
         tr.emit(f"return {as_double(value) if self.kind == 'f' else text(value)};")
 
     def on_yield(self, tr, node):
@@ -193,6 +195,15 @@ def _rate_arguments(fn, first):
     return list(zip(names, values))
 
 
+def constant(lib, bp, fn):
+    """The value of a lambda of the block's declarations (a ring's size) when it reads neither the
+    rate nor a live parameter (the same at every rate), else None."""
+    mode = Value("i")
+    _translate(lib, fn, _arguments(fn, bp), mode, "static long long hg_constant(void)")
+    values = set(mode.known)
+    return values.pop() if len(values) == 1 and None not in values else None
+
+
 def rate_function(lib, fn, name):
     """`static double NAME(double fs)`: a value of a group that is a function of the rate (Number.of_rate)."""
     fn, first = _bound(fn)
@@ -207,5 +218,5 @@ def row_function(lib, fn, args, name):
                       f"static void {name}(double {{rate}}, double *hg_out)")
 
 
-__all__ = ["COEF", "LIVE", "Params", "check_function", "derive_function", "rate_function", "row_function",
-           "value_function"]
+__all__ = ["COEF", "LIVE", "Params", "check_function", "constant", "derive_function", "rate_function",
+           "row_function", "value_function"]
