@@ -19,8 +19,7 @@ export function legend(kind = "lattice") {
       row(swatch("sw-loop"), "block on the string's loop"),
       row(swatch("sw-block"), "other block (wired as the lines show)"),
       row(swatch("sw-haptic"), "haptic device"),
-      row(swatch("sw-mic"), "microphone"),
-      Object.assign(document.createElement("div"), { className: "note", textContent: "Lock, Cut, Join and the place tools act on lattice cells: this patch has none." }));
+      row(swatch("sw-mic"), "microphone"));
     box.addEventListener("click", () => box.classList.toggle("folded"));
     return box;
   }
