@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from browser_env import artifacts, browser_or_skip, chromium, open_page, send, until
+from browser_env import artifacts, browser_or_skip, chromium, open_page, send, studio, until
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 PATCHES = ROOT / "patches"
@@ -18,8 +18,6 @@ PATCHES = ROOT / "patches"
 @contextlib.contextmanager
 def page(tmp_path, name, what):
     """The studio on a copy of patches/NAME.yaml, and a browser on its page."""
-    from browser_env import studio
-
     browser_or_skip()
     patch = tmp_path / f"{name}.yaml"
     shutil.copyfile(PATCHES / f"{name}.yaml", patch)
