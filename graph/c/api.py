@@ -4,6 +4,8 @@ instances), the port and parameter tables, and NAME_new / _free / _reset / _proc
 `plan` is a graph/c/export.CPlan."""
 from .values import NUMBER_ARRAYS, array_kind, literal
 
+CHUNK = 256     # NAME_process_float's buffers: samples converted at a time
+
 HEADER = """\
 /* {title}: a hapticgraph patch exported to C99 (libm only). Generated; do not edit.
    {name}_new(rate) makes an instance (NULL where the patch refuses the rate); {name}_process(s, in, out, n)
@@ -36,6 +38,7 @@ int {name}_refused(double rate, char *why, int size);   /* 0, or 1 and why (one 
 void {name}_free({name} *s);
 void {name}_reset({name} *s);
 int {name}_process({name} *s, const double *const *in, double *const *out, int n);
+int {name}_process_float({name} *s, const float *const *in, float *const *out, int n);   /* the same in float */
 int {name}_set({name} *s, int index, double value);
 double {name}_get(const {name} *s, int index);
 
@@ -94,6 +97,7 @@ def struct(plan):
                         ("scratch_live", len(plan.live)), ("coef", len(plan.coef)), ("scratch_coef", len(plan.coef))):
         lines.append(f"    double {field}[{max(1, size)}];")
     lines.append(f"    hg_arr buf[{max(1, len(plan.buffers))}];")
+    lines.append(f"    double fin[{max(1, len(plan.inputs))}][{CHUNK}], fout[{max(1, len(plan.outputs))}][{CHUNK}];")
     for k, array in enumerate(plan.arrays):
         lines.append(f"    {NUMBER_ARRAYS[array_kind(array)][1]} a{k}[{max(1, array.size)}];")
     return "\n".join(lines + ["};"]) + "\n"

@@ -101,7 +101,8 @@ class CPlan:
                  f'#include "{self.name}.h"', PRELUDE, api.struct(self), api.tables(self)]
         parts += ["\n".join(self.lib.prototypes()) + "\n"] + self.lib.definitions() + [kernel] + self.setup
         parts += [api.setup_calls(self), instance.free(self), instance.reset(self), instance.refused(self),
-                  instance.new(self), instance.process(self), instance.set_get(self)]
+                  instance.new(self), instance.process(self), instance.process_float(self),
+                  instance.set_get(self)]
         return "\n".join(parts)
 
     def _fixed_rings(self):

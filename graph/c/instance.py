@@ -2,7 +2,7 @@
 at that rate, rings allocated: the only allocation), _reset, _free, _process (pending parameter
 changes applied, then the translated kernel over n samples), _set and _get. `plan` is a
 graph/c/export.CPlan."""
-from .api import c_string
+from .api import CHUNK, c_string
 from .values import array_kind, literal
 
 
@@ -83,6 +83,30 @@ def process(plan):
     return "\n".join(lines)
 
 
+
+
+def process_float(plan):
+    """NAME_process_float: float columns converted to double through the instance's buffers,
+    CHUNK samples at a time, NAME_process over them, each output rounded once to float; on a
+    fault the forces of the whole call are zero, as NAME_process's."""
+    n, nin, nout = plan.name, len(plan.inputs), len(plan.outputs)
+    forces = [c for c, p in enumerate(plan.outputs) if p.kind == "cv"]
+    lines = [f"int {n}_process_float({n} *s, const float *const *in, float *const *out, int n)", "{",
+             f"    double *pin[{max(1, nin)}], *pout[{max(1, nout)}];", "    int done, m, k, c, r, code = 0;",
+             f"    for (c = 0; c < {nin}; c++) pin[c] = s->fin[c];",
+             f"    for (c = 0; c < {nout}; c++) pout[c] = s->fout[c];",
+             f"    for (done = 0; done < n; done += m) {{", f"        m = n - done < {CHUNK} ? n - done : {CHUNK};",
+             f"        for (c = 0; c < {nin}; c++) for (k = 0; k < m; k++) s->fin[c][k] = (double)in[c][done + k];",
+             f"        r = {n}_process(s, (const double *const *)pin, pout, m);", "        if (code == 0) code = r;",
+             f"        for (c = 0; c < {nout}; c++) for (k = 0; k < m; k++) out[c][done + k] = (float)s->fout[c][k];",
+             "    }"]
+    if forces:
+        lines.append(f"    if (code != 0) for (k = 0; k < n; k++) {{ "
+                     + " ".join(f"out[{c}][k] = 0.0f;" for c in forces) + " }")
+    lines += ["    (void)pin; (void)pout;", "    return code;", "}", ""]
+    return "\n".join(lines)
+
+
 VIEWS = {"arr": "hg_view", "iarr": "hg_iview", "i32arr": "hg_i32view", "u32arr": "hg_u32view"}
 
 
@@ -111,4 +135,4 @@ def set_get(plan):
         f"    return hg_live_slot[index] >= 0 ? s->next_live[hg_live_slot[index]] : {n}_params[index].def;", "}", ""])
 
 
-__all__ = ["free", "new", "process", "refused", "reset", "set_get"]
+__all__ = ["free", "new", "process", "process_float", "refused", "reset", "set_get"]

@@ -22,7 +22,7 @@ import subprocess
 from .compiler import FLAGS, ExportError
 
 TARGET = "wasm32-wasi"
-API = ("new", "refused", "free", "reset", "process", "set", "get",
+API = ("new", "refused", "free", "reset", "process", "process_float", "set", "get",
        "host_new", "host_input", "host_output", "host_process", "host_instance", "host_free")
 
 HOST = """\

@@ -86,8 +86,8 @@ def test_plain_c99_without_a_writable_global(c_export, tmp_path):
     assert all(f"extern const karplus_strong_{t}" in header for t in ("port karplus_strong_ports",
                                                                        "param karplus_strong_params"))
     exported = sorted(s for s, k in kinds.items() if k in "TRD")
-    assert exported == sorted(f"karplus_strong_{f}" for f in ("new", "refused", "free", "reset", "process", "set",
-                                                              "get", "ports", "params"))
+    assert exported == sorted(f"karplus_strong_{f}" for f in ("new", "refused", "free", "reset", "process",
+                                                              "process_float", "set", "get", "ports", "params"))
     undefined = {s for s, k in kinds.items() if k == "U"}
     assert undefined <= {"calloc", "free", "memcpy", "memset", "sin", "cos", "floor", "nearbyint", "exp", "fmod",
                          "copysign", "pow", "sqrt", "log", "fabs", "sincos", "vsnprintf"}, undefined
