@@ -197,9 +197,13 @@ class StudioSession:
         return None
 
     def apply(self, patch):
-        """To the running sound: live parameters when only they changed, else a swap."""
+        """To the running sound: live parameters when only they changed, else a swap; after a
+        safety stop (a runaway, a NaN), from rest: the state that ran away would run away again."""
+        if self.runner.problem is not None:
+            self.restart(patch)
+            return
         changes = adapter.live_changes(self.patch, patch)
-        if changes is not None and self.runner.problem is None:
+        if changes is not None:
             adapter.apply_live(self.live.session, changes)
             return
         self.swap(patch)
@@ -229,8 +233,9 @@ class StudioSession:
                 break
         return queued.wait(0)
 
-    def restart(self):
-        adapter.restart(self.live, self.patch, probes=list(self.probes))
+    def restart(self, patch=None):
+        """The patch (the current one, or `patch`) from rest at t = 0; the sound on again."""
+        adapter.restart(self.live, self.patch if patch is None else patch, probes=list(self.probes))
         self.runner.resume()
         self.problem = None
 

@@ -83,7 +83,7 @@ def test_a_lattice_slider_drags_stays_inside_the_bound_and_shows_what_is_in_effe
         # said beside the control, and the banner can be dismissed
         before = in_effect(driver, "str", "tension")["value"]
         box = driver.find_element("css selector", "#param-str-tension")
-        box.clear()
+        box.send_keys(Keys.CONTROL, "a")
         box.send_keys("1e9", Keys.ENTER)
         note = until(lambda: driver.execute_script(
             "const n = document.querySelector('#param-str-tension').closest('.param').querySelector('.refusal');"
@@ -169,3 +169,35 @@ def test_a_lattice_patch_has_its_tools(tmp_path):
     with page(tmp_path, "cymatic_string", "controls_lattice_tools") as driver:
         assert driver.find_element("css selector", "#tool").is_enabled()
         assert not driver.find_element("css selector", "#tools-note").is_displayed()
+
+
+def status_t(driver):
+    return driver.execute_script("return window.studio.status ? window.studio.status.t : null")
+
+
+def test_undo_after_a_runaway_resumes_the_sound(tmp_path):
+    from selenium.webdriver.common.keys import Keys
+
+    with page(tmp_path, "cymatic_sheet", "controls_runaway") as driver:
+        box = driver.find_element("css selector", "#param-hit-force")
+        box.send_keys(Keys.CONTROL, "a")
+        box.send_keys("1e6", Keys.ENTER)                    # a strike a million times too hard
+        until(lambda: in_effect(driver, "hit", "force")["value"] == 1e6, 20, lambda: f"the force was not set: box {box.get_attribute('value')!r}, in effect {in_effect(driver, 'hit', 'force')}, {driver.find_element('css selector', '#error').text}")
+        driver.find_element("css selector", "#restart").click()
+        banner = driver.find_element("css selector", "#error")
+        until(lambda: banner.is_displayed() and "runaway" in banner.text, 60, "no runaway shown")
+        time.sleep(1.2)                                     # a status event since the restart
+        stopped = status_t(driver)
+        time.sleep(1.5)
+        assert status_t(driver) == stopped < 0.1, "the sound went on after the runaway"
+        driver.find_element("css selector", "#undo").click()
+        until(lambda: in_effect(driver, "hit", "force")["value"] == 0.5, 60, "undo did not take the force back")
+        first = until(lambda: (lambda t: t is not None and t != stopped and t)(status_t(driver)), 30,
+                      "no status since the undo")
+        time.sleep(2.0)
+        later = status_t(driver)
+        problem = send(driver, {"cmd": "state"})["result"]["problem"]
+        shown_banner = banner.is_displayed() and banner.text
+    assert later - first > 1.0, (stopped, first, later)
+    assert problem is None, problem
+    assert not shown_banner, shown_banner

@@ -87,6 +87,10 @@ window.studio = studio;
 
 const panels = {};
 
+// what a designer can do once the sound stopped to protect the player (a runaway, a NaN)
+const STOPPED = "The sound has stopped. Undo, or change what ran away: the sound then starts again from rest " +
+  "(t = 0). Or Restart.";
+
 function apply(desc) {
   desc = withFlat(desc);
   studio.desc = desc;
@@ -94,7 +98,7 @@ function apply(desc) {
   view.setMarkers(desc.excitations, desc.microphones, desc.joins);
   $("#title").textContent = `${desc.patch.name} — ${desc.patch.path}`;
   for (const p of Object.values(panels)) p.update(desc);
-  if (desc.problem) showError([desc.problem]);
+  if (desc.problem) showError([desc.problem, STOPPED]);
 }
 
 function measure() {
@@ -150,7 +154,7 @@ async function main() {
   studio.recovery = recovery;
   link.on("event", (m) => {
     if (m.type === "changed") apply(m);
-    else if (m.type === "problem") showError([m.message]);
+    else if (m.type === "problem") showError([m.message, STOPPED]);
     else if (m.type === "recovery") recovery.event(m);
     else if (m.type === "status") (studio.status = m), $("#status").textContent = `t ${m.t.toFixed(1)} s · xruns ${m.xruns} · load ${(100 * m.load).toFixed(0)} %`;
   });
