@@ -3,6 +3,7 @@ host (graph/c/drivers.py), its kernel translated (graph/c/kernel.py), each block
 first states and ring sizes translated for the host's rate (graph/c/setup.py), and the API around
 them (graph/c/api.py, graph/c/instance.py). What cannot be lowered is a PatchError: one
 `FILE:LINE: message` per problem, naming the block and why."""
+import inspect
 import math
 import os
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from .kernel import KERNEL_FILE, translate_kernel
 from .library import Library
 from .runtime import PRELUDE
 from .setup import check_function, constant, derive_function, rate_function, row_function, value_function
+from .source import where
 from .stability import stability_source
 from .values import Refused, array_kind, literal
 
@@ -134,7 +136,9 @@ class CPlan:
             for k, (ref, row, fn, args) in enumerate(gs.rate_rows):
                 array = self.arrays[ref.index]
                 if array_kind(array) != "arr2":
-                    raise Refused(KERNEL_FILE, 1, f"a row of {ref.local!r}, which is not a matrix of doubles")
+                    file, line = where(fn.__func__ if inspect.ismethod(fn) else fn)
+                    raise Refused(file, line, f"a row computed from the rate, of {ref.local!r}, which is not a matrix "
+                                              "of doubles")
                 name = f"hg_row_{g}_{k}"
                 self.setup.append(row_function(self.lib, fn, args, name))
                 self.rows.append(f"{name}(s->rate, s->a{ref.index} + {int(row) * array.shape[1]});")
