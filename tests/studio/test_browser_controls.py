@@ -201,3 +201,25 @@ def test_undo_after_a_runaway_resumes_the_sound(tmp_path):
     assert later - first > 1.0, (stopped, first, later)
     assert problem is None, problem
     assert not shown_banner, shown_banner
+
+
+def test_a_join_asks_its_tension_with_the_patchs_own_as_default(tmp_path):
+    from selenium.webdriver.common.keys import Keys
+    from selenium.webdriver.support.ui import Select
+
+    with page(tmp_path, "string_drives_plate", "controls_join") as driver:
+        Select(driver.find_element("css selector", "#look")).select_by_value("top")
+        Select(driver.find_element("css selector", "#tool")).select_by_value("join")
+        field = driver.find_element("css selector", "#join-tension")
+        assert field.is_displayed()
+        default, why = float(field.get_attribute("value")), driver.find_element("css selector", "#join-why").text
+        field.send_keys(Keys.CONTROL, "a")
+        field.send_keys("1500")
+        click_cell(driver, 1, 0 * 12 + 2)                    # plate[0, 2] then plate[3, 7]
+        click_cell(driver, 1, 3 * 12 + 7)
+        joins = until(lambda: (lambda j: len(j) == 2 and j)(driver.execute_script("return window.studio.desc.joins")),
+                      120, lambda: f"no join: {driver.find_element('css selector', '#error').text}")
+    # the patch's own join (its bridge, 2000 N/m), not the mean of the parts (21350 N/m)
+    assert default == 2000.0, default
+    assert "bridge" in why and "2000" in why, why
+    assert joins[1]["a"] == "plate[0, 2]" and joins[1]["b"] == "plate[3, 7]" and joins[1]["tension"] == 1500.0, joins

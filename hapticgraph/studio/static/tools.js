@@ -25,6 +25,7 @@ export class Tools {
     $("#look").addEventListener("change", (e) => this.ctx.view.look(e.target.value));
     $("#layer").addEventListener("change", (e) => this._layer(e.target.value));
     $("#edit-apply").onclick = () => this._edit();
+    $("#join-tension").addEventListener("input", (e) => { e.target.dataset.touched = "1"; });
     for (const id of EDITS) $(id).addEventListener("input", (e) => { e.target.dataset.touched = "1"; });
     const pan = $("#mic-pan");
     pan.addEventListener("input", () => { $("#mic-pan-value").textContent = pan.value; });
@@ -34,6 +35,7 @@ export class Tools {
   update(desc) {
     this.desc = desc;
     this._forLattices(desc.lattices.length > 0);
+    this._joinDefault();
     this._fillLayers();
     this.selection = this.selection.filter((c) => desc.byId[c.lattice] && !desc.byId[c.lattice].cutFlat.includes(c.flat));
     this.select(this.selection);
@@ -44,9 +46,32 @@ export class Tools {
   _forLattices(any) {
     this.none = !any;
     $("#tools-note").hidden = any;
+    $("#join-tension-row").hidden = $("#join-why").hidden = !any;
     $("#cell-edit").hidden = !any;
     for (const id of ["#tool", "#place-which", "#clear-selection", "#edit-mass", "#edit-damping", "#edit-tension"]) $(id).disabled = !any;
     if (!any && $("#tool").value !== "select") { $("#tool").value = "select"; this.joinFirst = null; }
+  }
+
+  // the next join's tension, until the designer types one: the patch's last join's (its bridge),
+  // else the softest lattice's (a join as stiff as the mean of two parts can be ten times the
+  // patch's own bridge); said beside the field
+  _joinDefault() {
+    const field = $("#join-tension"), joins = this.desc.joins.filter((j) => typeof j.tension === "number");
+    const parts = this.desc.params.filter((p) => p.param === "tension" && p.type === "lattice");
+    let value = 100, why = "the spring's default";
+    if (joins.length) { const j = joins[joins.length - 1]; value = j.tension; why = `as the patch's join ${j.block}`; }
+    else if (parts.length) {
+      const p = parts.reduce((a, b) => (b.value < a.value ? b : a));
+      value = p.value; why = `as the softer part, ${p.block}`;
+    }
+    this.joinDefault = value;
+    $("#join-why").textContent = field.dataset.touched ? "" : `default ${fmt(value)} N/m: ${why}`;
+    if (!field.dataset.touched) field.value = value;
+  }
+
+  joinTension() {
+    const v = Number($("#join-tension").value);
+    return $("#join-tension").value !== "" && Number.isFinite(v) && v >= 0 ? v : this.joinDefault;
   }
 
   // the layer choice: every block's layers along its first axis
@@ -196,7 +221,7 @@ export class Tools {
 
   _join(a, b) {
     if (!a || !b) return null;
-    return this.ctx.send({ cmd: "join", a: this.name(a), b: this.name(b) });
+    return this.ctx.send({ cmd: "join", a: this.name(a), b: this.name(b), tension: this.joinTension() });
   }
 
   async _edit() {
