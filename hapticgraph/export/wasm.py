@@ -2,8 +2,9 @@
 and wasm-ld (wasi-libc's libm and malloc linked in; the module imports nothing), `NAME.js`, an
 AudioWorkletProcessor that runs it, and `index.html`, a page that plays it from any static server.
 
-The module exports the C API (NAME_new, _free, _reset, _process, _set, _get), `malloc`, `free`
-and a buffer interface for a host that reaches the module's memory by offsets (`NAME_host.c`):
+The module exports the C API (NAME_new, _refused, _free, _reset, _process, _process_float, _set,
+_get), `malloc`, `free` and a buffer interface for a host that reaches the module's memory by
+offsets (`NAME_host.c`):
 NAME_host_new(rate, block) makes an instance with one buffer of `block` doubles per column,
 NAME_host_input(h, k) / NAME_host_output(h, k) give their addresses, NAME_host_process(h, n) runs
 n ≤ block samples through them, NAME_host_instance(h) is the instance for NAME_set / NAME_get.
