@@ -39,21 +39,23 @@ def _number(msg, name, default=...):
     return value
 
 
-def _edit(st, msg, block, make):
+def _edit(st, msg, block, make, gesture=None):
     """Run the text edit `make(text)`; the new text through the loader to the sound."""
     try:
         text = make(st.text)
     except (EditError, TextError) as exc:
         raise CommandError([st.where(block, str(exc))]) from None
-    st.change(text, msg["cmd"], block)
+    st.change(text, msg["cmd"], block, gesture=gesture)
 
 
 def _set(st, msg, view):
     block, param = _field(msg, "block", str), _field(msg, "param", str)
     value = _field(msg, "value", (int, float, str, list, bool))
+    gesture = _field(msg, "gesture", (str, int), None)      # one slider drag: one undo entry
     if isinstance(value, float) and not math.isfinite(value):
         raise CommandError(["studio: set: the value must be a finite number"])
-    _edit(st, msg, block, lambda t: edits.set_param(t, st.patch, block, param, value))
+    _edit(st, msg, block, lambda t: edits.set_param(t, st.patch, block, param, value),
+          gesture=None if gesture is None else (block, param, gesture))
     return {"value": value}
 
 

@@ -52,6 +52,7 @@ class StudioSession:
         self.note = note if note is not None else (lambda message: None)
         self.unsaved = 0             # accepted edits (undo and redo too) since the text was the file's
         self.unkept = None           # why the last edit could not be kept in the recovery file
+        self.gesture = None          # the gesture of the last edit (docs/studio.md: set)
         self.offer = recovery.find(self.path, self.saved, self.note)
         self.probes = {}
         self.problem = None
@@ -110,14 +111,18 @@ class StudioSession:
         except PatchError as exc:
             raise CommandError([str(p) for p in exc.problems] or [str(exc)]) from None
 
-    def change(self, text, cause, block=None):
-        """Make `text` the patch: loaded, then applied to the sound, then kept (undo history)."""
+    def change(self, text, cause, block=None, gesture=None):
+        """Make `text` the patch: loaded, then applied to the sound, then kept (undo history).
+        `gesture`: edits with the same one in a row (a slider's drag) are one undo entry."""
         self.answered()
         if text == self.text:
             return
         patch = self.accept(text, block)
-        self.remember(self.text)
-        self.commit(text, patch, cause)
+        going_on = gesture is not None and gesture == self.gesture and bool(self.undo_stack)
+        if not going_on:
+            self.remember(self.text)
+        self.gesture = gesture
+        self.commit(text, patch, cause, edits=self.unsaved if going_on else None)
 
     def remember(self, text):
         """`text` onto the undo history (the oldest dropped beyond UNDO_BYTES); no redo after a new edit."""
@@ -175,6 +180,7 @@ class StudioSession:
             raise CommandError(["studio: recover: no unsaved edits are offered"])
         patch = self.accept(offer.text)
         self.offer = None
+        self.gesture = None
         self.remember(self.text)
         self.commit(offer.text, patch, "recover", edits=offer.edits)
         self._emit({"type": "recovery", "offered": False, "cmd": "recover"})
@@ -247,6 +253,7 @@ class StudioSession:
             raise CommandError([f"studio: nothing to {'undo' if back else 'redo'}"])
         text, current = source[-1], self.text
         patch = self.accept(text)
+        self.gesture = None
         source.pop()
         target.append(current)
         self.undo_bytes += sys.getsizeof(current) if not back else -sys.getsizeof(text)

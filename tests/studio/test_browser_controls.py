@@ -223,3 +223,29 @@ def test_a_join_asks_its_tension_with_the_patchs_own_as_default(tmp_path):
     assert default == 2000.0, default
     assert "bridge" in why and "2000" in why, why
     assert joins[1]["a"] == "plate[0, 2]" and joins[1]["b"] == "plate[3, 7]" and joins[1]["tension"] == 1500.0, joins
+
+
+def test_one_drag_is_one_undo_entry_and_ctrl_z_works_on_a_focused_slider(tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    with page(tmp_path, "cymatic_string", "controls_undo") as driver:
+        before = in_effect(driver, "str", "damping")["value"]
+        _, _, slider = shown(driver, "str", "damping")
+        drag(driver, slider, slider.rect["width"] / 2, 10, 6)
+        until(lambda: in_effect(driver, "str", "damping")["value"] == shown(driver, "str", "damping")[0] != before, 60,
+              lambda: f"the drag did not land: {shown(driver, 'str', 'damping')[:2]}")
+        dragged = in_effect(driver, "str", "damping")["value"]
+        undo = send(driver, {"cmd": "state"})["result"]["undo"]
+        assert driver.switch_to.active_element == slider
+        ActionChains(driver).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
+        until(lambda: in_effect(driver, "str", "damping")["value"] == before, 60, "Ctrl+Z on the slider undid nothing")
+        until(lambda: shown(driver, "str", "damping")[0] == before, 10, "the box does not show the undone value")
+        at = shown(driver, "str", "damping")[1]
+        after_undo = send(driver, {"cmd": "state"})["result"]["undo"]
+        ActionChains(driver).key_down(Keys.CONTROL).key_down(Keys.SHIFT).send_keys("z").key_up(Keys.SHIFT) \
+            .key_up(Keys.CONTROL).perform()
+        until(lambda: in_effect(driver, "str", "damping")["value"] == dragged, 60, "Ctrl+Shift+Z redid nothing")
+    assert undo == 1, undo
+    assert after_undo == 0
+    assert abs(at - before) <= 0.01 * before, (at, before)

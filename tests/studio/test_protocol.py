@@ -369,3 +369,19 @@ def test_restart_starts_from_rest_and_text_replaces_the_patch(page):
     reply = page.send("text", text=text.replace("type: pluck", "type: plukc"))
     assert not reply["ok"] and "plukc" in reply["error"] and re.match(r".*cymatic_sheet\.yaml:\d+: ", reply["error"])
     assert "pan: 0.75}" in page.ok("state")["text"]
+
+
+def test_the_sets_of_one_gesture_are_one_undo_entry(page):
+    """A slider's drag sends its sets with one `gesture`: one entry to undo, back to before the drag."""
+    for gain in (2.5, 3.0, 3.5):
+        page.ok("set", block="mic1", param="gain", value=gain, gesture="drag-1")
+    assert page.ok("state")["undo"] == 1
+    page.ok("set", block="mic1", param="gain", value=4.0, gesture="drag-2")
+    page.ok("set", block="mic1", param="gain", value=4.5)
+    assert page.ok("state")["undo"] == 3
+    page.ok("undo")
+    page.ok("undo")
+    assert page.ok("undo")["undo"] == 0
+    assert [p["value"] for p in page.ok("describe")["params"] if (p["block"], p["param"]) == ("mic1", "gain")] == [2.0]
+    reply = page.send("set", block="mic1", param="gain", value=2.5, gesture=[1])
+    assert not reply["ok"] and "gesture" in reply["error"]

@@ -1,6 +1,8 @@
 // Undo, redo, restart, the text pane, and save with a diff preview (what will change in the file).
 import { $ } from "./dom.js";
 
+const TYPED = "textarea, input:not([type=range]):not([type=checkbox]):not([type=radio]):not([type=button])";
+
 export class History {
   constructor(ctx) {
     this.ctx = ctx;
@@ -13,7 +15,8 @@ export class History {
     $("#text-apply").onclick = () => ctx.send({ cmd: "text", text: $("#text").value });
     $("#text-reload").onclick = () => { $("#text").value = this.text; };
     document.addEventListener("keydown", (e) => {
-      if (!(e.ctrlKey || e.metaKey) || e.target.matches("input, textarea")) return;
+      // a field where text is typed keeps its own undo; a slider, a checkbox or a menu does not
+      if (!(e.ctrlKey || e.metaKey) || e.target.matches(TYPED)) return;
       const k = e.key.toLowerCase();
       if (k === "z" && !e.shiftKey) { e.preventDefault(); ctx.send({ cmd: "undo" }); }
       else if ((k === "z" && e.shiftKey) || k === "y") { e.preventDefault(); ctx.send({ cmd: "redo" }); }
