@@ -249,3 +249,40 @@ def test_one_drag_is_one_undo_entry_and_ctrl_z_works_on_a_focused_slider(tmp_pat
     assert undo == 1, undo
     assert after_undo == 0
     assert abs(at - before) <= 0.01 * before, (at, before)
+
+
+FIELDS = ("header button:not([hidden]), header select, #toolbar button, #toolbar select, #toolbar input, "
+          "#cell-edit input, #cell-edit button, #tabs button, #tab-params input, #tab-scope input, #tab-scope select, "
+          "#tab-modes input, #tab-modes button, #tab-text button, #tab-text textarea")
+SHORTCUTS = {"#undo": "Ctrl+Z", "#redo": "Ctrl+Shift+Z", "#save": "Ctrl+S", "#lock": "(L)", "#unlock": "(U)",
+             "#cut": "(X)", "#clear-selection": "(C)", "#join": "(J)", "#restart": "(R)"}
+UNITS = {"#edit-mass": "[kg]", "#edit-damping": "[N·s/m]", "#edit-tension": "[N/m]", "#join-tension": "[N/m]",
+         "#param-str-mass": "[kg]", "#param-str-tension-slider": "[N/m]", "#param-mic1-pan": "pan"}
+
+
+def test_every_tool_and_field_has_a_tooltip_and_question_mark_opens_the_help(tmp_path):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    with page(tmp_path, "cymatic_string", "controls_help") as driver:
+        untitled = driver.execute_script(
+            "return [...document.querySelectorAll(arguments[0])].filter((e) => !(e.closest('[title]') || {}).title)"
+            ".map((e) => e.id || e.outerHTML.slice(0, 80))", FIELDS)
+        title = {s: driver.find_element("css selector", s).get_attribute("title") for s in (*SHORTCUTS, *UNITS)}
+        options = [o.text for o in driver.find_elements("css selector", "#tool option")]
+        help_box = driver.find_element("css selector", "#help")
+        assert not help_box.is_displayed()
+        driver.find_element("css selector", "#title").click()
+        ActionChains(driver).send_keys("?").perform()
+        until(help_box.is_displayed, 5, "? did not open the help")
+        text = help_box.text
+        ActionChains(driver).send_keys(Keys.ESCAPE).perform()
+        until(lambda: not help_box.is_displayed(), 5, "Esc did not close the help")
+        ActionChains(driver).send_keys("m").perform()
+        tool = driver.find_element("css selector", "#tool").get_attribute("value")
+    assert untitled == [], untitled
+    assert {s: t for s, t in title.items() if (SHORTCUTS.get(s) or UNITS[s]) not in t} == {}, title
+    assert options == ["Select (V)", "Place microphone (M)", "Place excitation (E)", "Join (J): click two cells"], options
+    for key in ("?", "Esc", "V", "M", "E", "J", "L", "U", "X", "C", "R", "Ctrl+Z", "Ctrl+Shift+Z", "Ctrl+S"):
+        assert f"\n{key} " in f"\n{text}" or f" {key} " in text, (key, text)
+    assert tool == "mic"

@@ -1,7 +1,6 @@
 // Undo, redo, restart, the text pane, and save with a diff preview (what will change in the file).
 import { $ } from "./dom.js";
-
-const TYPED = "textarea, input:not([type=range]):not([type=checkbox]):not([type=radio]):not([type=button])";
+import { TYPED } from "./tools.js";
 
 export class History {
   constructor(ctx) {
@@ -15,8 +14,10 @@ export class History {
     $("#text-apply").onclick = () => ctx.send({ cmd: "text", text: $("#text").value });
     $("#text-reload").onclick = () => { $("#text").value = this.text; };
     document.addEventListener("keydown", (e) => {
+      if (e.key.toLowerCase() === "r" && !(e.ctrlKey || e.metaKey || e.altKey) && !e.target.matches(TYPED)
+          && !document.querySelector("dialog[open]")) { ctx.send({ cmd: "restart" }); return; }
       // a field where text is typed keeps its own undo; a slider, a checkbox or a menu does not
-      if (!(e.ctrlKey || e.metaKey) || e.target.matches(TYPED)) return;
+      if (!(e.ctrlKey || e.metaKey) || (e.target.matches(TYPED) && !e.target.matches("select"))) return;
       const k = e.key.toLowerCase();
       if (k === "z" && !e.shiftKey) { e.preventDefault(); ctx.send({ cmd: "undo" }); }
       else if ((k === "z" && e.shiftKey) || k === "y") { e.preventDefault(); ctx.send({ cmd: "redo" }); }

@@ -4,7 +4,7 @@
 import { Link } from "./link.js";
 import { Instrument } from "./instrument.js";
 import { flatten } from "./layout.js";
-import { Tools } from "./tools.js";
+import { Tools, TYPED } from "./tools.js";
 import { Params } from "./params.js";
 import { Wiring } from "./wiring.js";
 import { Scopes } from "./scope.js";
@@ -119,6 +119,18 @@ function measure() {
   requestAnimationFrame(loop);
 }
 
+// the help overlay (?), and Esc for the banner
+function help() {
+  const box = $("#help");
+  $("#help-open").onclick = () => box.showModal();
+  $("#help-close").onclick = () => box.close();
+  document.addEventListener("keydown", (e) => {
+    if (e.ctrlKey || e.metaKey || e.altKey || e.target.matches(TYPED)) return;
+    if (e.key === "?" && !document.querySelector("dialog[open]")) { e.preventDefault(); box.showModal(); }
+    else if (e.key === "Escape" && !document.querySelector("dialog[open]")) clearError();
+  });
+}
+
 function tabs() {
   for (const b of document.querySelectorAll("#tabs button")) {
     b.onclick = () => {
@@ -148,6 +160,7 @@ function pace(drawn) {
 async function main() {
   tabs();
   $("#error-close").onclick = () => clearError();
+  help();
   link.on("cells", (f) => { if (!panels.modes.showing(f.lattice)) view.take(f.lattice, f.values); });
   const ctx = { send, view, link, studio, panels };
   const recovery = new Recovery(ctx);      // not a panel: it has nothing to update from the instrument

@@ -5,6 +5,8 @@ import { $, el, fmt } from "./dom.js";
 import { unflatten, cellName } from "./layout.js";
 
 const EDITS = ["#edit-mass", "#edit-damping", "#edit-tension"];
+// fields where keys type text: the one-key shortcuts leave them alone
+export const TYPED = "textarea, select, input:not([type=range]):not([type=checkbox]):not([type=radio]):not([type=button])";
 
 export class Tools {
   constructor(ctx) {
@@ -26,6 +28,8 @@ export class Tools {
     $("#layer").addEventListener("change", (e) => this._layer(e.target.value));
     $("#edit-apply").onclick = () => this._edit();
     $("#join-tension").addEventListener("input", (e) => { e.target.dataset.touched = "1"; });
+    for (const id of EDITS) $(id).addEventListener("keydown", (e) => { if (e.key === "Enter") this._edit(); });
+    document.addEventListener("keydown", (e) => this._key(e));
     for (const id of EDITS) $(id).addEventListener("input", (e) => { e.target.dataset.touched = "1"; });
     const pan = $("#mic-pan");
     pan.addEventListener("input", () => { $("#mic-pan-value").textContent = pan.value; });
@@ -108,6 +112,19 @@ export class Tools {
     // after "+ new": the one just placed, so that the next click moves it rather than adds another
     if (this.placed && [...which.options].some((o) => o.value === this.placed)) { which.value = this.placed; this.placed = null; }
     this._showPan();
+  }
+
+  // the tools' one-key shortcuts (the help overlay lists them), outside fields where text is typed
+  _key(e) {
+    if (e.ctrlKey || e.metaKey || e.altKey || e.target.matches(TYPED) || document.querySelector("dialog[open]")) return;
+    if (this.none) return;
+    const tool = { v: "select", escape: "select", m: "mic", e: "excite", j: "join" }[e.key.toLowerCase()];
+    if (tool) {
+      if ($("#tool").value !== tool) { $("#tool").value = tool; $("#tool").dispatchEvent(new Event("change")); }
+      return;
+    }
+    const button = { l: "#lock", u: "#unlock", x: "#cut", c: "#clear-selection" }[e.key.toLowerCase()];
+    if (button && !$(button).disabled) { e.preventDefault(); $(button).click(); }
   }
 
   // an edit pending (on) or landed: the tools that edit wait for it
