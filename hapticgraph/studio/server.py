@@ -133,7 +133,13 @@ def build_app(studio, token, host="127.0.0.1", start=False):
 
     files = (Mount("/static", app=StaticFiles(directory=STATIC), name="static") if os.path.isdir(STATIC)
              else Route("/static/{path:path}", missing))
-    routes = [Route("/", page), WebSocketRoute("/ws", socket), files]
+    async def icon(request):          # what a browser asks for when a page names no icon
+        svg = os.path.join(STATIC, "favicon.svg")
+        if not os.path.isfile(svg):
+            return await missing(request)
+        return FileResponse(svg, media_type="image/svg+xml")
+
+    routes = [Route("/", page), Route("/favicon.ico", icon), WebSocketRoute("/ws", socket), files]
 
     @contextlib.asynccontextmanager
     async def lifespan(app):

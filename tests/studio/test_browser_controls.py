@@ -286,3 +286,18 @@ def test_every_tool_and_field_has_a_tooltip_and_question_mark_opens_the_help(tmp
     for key in ("?", "Esc", "V", "M", "E", "J", "L", "U", "X", "C", "R", "Ctrl+Z", "Ctrl+Shift+Z", "Ctrl+S"):
         assert f"\n{key} " in f"\n{text}" or f" {key} " in text, (key, text)
     assert tool == "mic"
+
+
+def test_the_page_loads_with_no_404_and_a_favicon(tmp_path):
+    with page(tmp_path, "cymatic_sheet", "controls_favicon") as driver:
+        time.sleep(1.0)                           # the browser asks for the icon after the page
+        log = driver.get_log("browser")
+        icon = driver.execute_script("const l = document.querySelector('link[rel=icon]'); return l && l.href")
+        fetched = driver.execute_async_script(
+            "const done = arguments[arguments.length - 1];"
+            "fetch(arguments[0]).then(async (r) => done([r.status, r.headers.get('content-type'), (await r.text()).slice(0, 200)]),"
+            " (e) => done([0, String(e), '']));", icon) if icon else None
+    missing = [e["message"] for e in log if "404" in e["message"] or "Failed to load resource" in e["message"]]
+    assert missing == [], missing
+    assert icon and icon.endswith(".svg"), icon
+    assert fetched[0] == 200 and fetched[1].startswith("image/svg+xml") and "<svg" in fetched[2], fetched

@@ -385,3 +385,10 @@ def test_the_sets_of_one_gesture_are_one_undo_entry(page):
     assert [p["value"] for p in page.ok("describe")["params"] if (p["block"], p["param"]) == ("mic1", "gain")] == [2.0]
     reply = page.send("set", block="mic1", param="gain", value=2.5, gesture=[1])
     assert not reply["ok"] and "gesture" in reply["error"]
+
+
+def test_the_icon_is_served_at_both_addresses(client):
+    for url in (f"/favicon.ico?token={TOKEN}", f"/static/favicon.svg?token={TOKEN}"):
+        r = client.get(url)
+        assert r.status_code == 200 and r.headers["content-type"].startswith("image/svg+xml") and b"<svg" in r.content
+    assert client.get("/favicon.ico").status_code == 403
