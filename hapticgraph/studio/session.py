@@ -19,6 +19,8 @@ from .tap import Tap
 
 VERSION = 1
 SWAP_TIMEOUT = 120.0       # seconds a compiled swap may wait for the sound thread (a loaded machine)
+RECHECK_BLOCKS = 2         # blocks an edit after a safety stop must play before its state is trusted
+RECHECK_SECONDS = 2.0      # ... at most this long (a loaded machine, a sound card opening again)
 UNDO_BYTES = 16 << 20      # memory of the texts the undo history holds; beyond it the oldest go (a flood of edits)
 
 
@@ -203,16 +205,31 @@ class StudioSession:
         return None
 
     def apply(self, patch):
-        """To the running sound: live parameters when only they changed, else a swap; after a
-        safety stop (a runaway, a NaN), from rest: the state that ran away would run away again."""
-        if self.runner.problem is not None:
-            self.restart(patch)
-            return
+        """To the running sound: live parameters when only they changed, else a swap. After a
+        safety stop (a runaway, a NaN) the swap keeps the state and the clock as any other; if
+        that state runs away again at once, the patch starts from rest (undo back to a stable
+        patch then plays again: the sound does not stay stopped)."""
+        stopped = self.runner.problem is not None
         changes = adapter.live_changes(self.patch, patch)
-        if changes is not None:
+        if changes is not None and not stopped:
             adapter.apply_live(self.live.session, changes)
             return
+        since = self.live.t
         self.swap(patch)
+        if stopped and self._stops_again(since):
+            self.restart(patch)
+
+    def _stops_again(self, since):
+        """True if the sound stops again (a safety stop) before it has played RECHECK_BLOCKS
+        blocks past sample `since`, within RECHECK_SECONDS."""
+        deadline = time.monotonic() + RECHECK_SECONDS
+        while time.monotonic() < deadline:
+            if self.runner.problem is not None:
+                return True
+            if self.live.t >= since + RECHECK_BLOCKS * self.blocksize:
+                return False
+            time.sleep(0.005)
+        return self.runner.problem is not None
 
     def swap(self, patch, probes=None):
         """Compile `patch` (the old one keeps playing meanwhile) and swap it in, keeping state."""

@@ -336,16 +336,16 @@ def test_a_safety_stop_is_reported_and_the_next_edit_plays_again(page, studio):
     assert re.match(r"runaway: out\.(left|right) reached .* over the limit 1000", problem["message"]), problem
     assert page.ok("state")["problem"] == problem["message"]
     stopped = page.ok("state")["t"]
-    page.ok("set", block="mic1", param="gain", value=2.0)        # from rest: the sound goes on
+    page.ok("set", block="mic1", param="gain", value=2.0)        # swapped in: the sound goes on
     assert page.ok("state")["problem"] is None
     page.frames.clear()
     frames = [cell_frame(f) for f in page.wait_frames(1, 10)]
-    assert frames[0][3] < stopped * 44100 < 2 * 44100 and frames[-1][3] > frames[0][3]
+    assert frames[-1][3] > stopped * 44100
 
 
 def test_undo_after_a_runaway_of_the_state_plays_again_from_rest(page, studio):
     """The state ran away (a strike a million times too hard): undo to the right strike plays it
-    from rest; kept, the state would run away again at once and the sound stay stopped."""
+    from rest (kept, the state runs away again at once and the sound would stay stopped)."""
     page.ok("set", block="hit", param="force", value=1e6)
     page.ok("restart")
     assert _event(page, "problem")["message"].startswith("runaway")

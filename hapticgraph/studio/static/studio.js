@@ -86,6 +86,7 @@ const studio = {
 window.studio = studio;
 
 const panels = {};
+let problemShown = false;       // the banner says the sound stopped (a problem event)
 
 // what a designer can do once the sound stopped to protect the player (a runaway, a NaN)
 const STOPPED = "The sound has stopped. Undo, or change what ran away: the sound then starts again from rest " +
@@ -98,7 +99,8 @@ function apply(desc) {
   view.setMarkers(desc.excitations, desc.microphones, desc.joins);
   $("#title").textContent = `${desc.patch.name} — ${desc.patch.path}`;
   for (const p of Object.values(panels)) p.update(desc);
-  if (desc.problem) showError([desc.problem, STOPPED]);
+  if (desc.problem) { showError([desc.problem, STOPPED]); problemShown = true; }
+  else if (problemShown) { clearError(); problemShown = false; }     // the sound plays again
 }
 
 function measure() {
@@ -167,7 +169,7 @@ async function main() {
   studio.recovery = recovery;
   link.on("event", (m) => {
     if (m.type === "changed") apply(m);
-    else if (m.type === "problem") showError([m.message, STOPPED]);
+    else if (m.type === "problem") { showError([m.message, STOPPED]); problemShown = true; }
     else if (m.type === "recovery") recovery.event(m);
     else if (m.type === "status") (studio.status = m), $("#status").textContent = `t ${m.t.toFixed(1)} s · xruns ${m.xruns} · load ${(100 * m.load).toFixed(0)} %`;
   });
