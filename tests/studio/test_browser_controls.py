@@ -253,7 +253,8 @@ def test_one_drag_is_one_undo_entry_and_ctrl_z_works_on_a_focused_slider(tmp_pat
 
 FIELDS = ("header button:not([hidden]), header select, #toolbar button, #toolbar select, #toolbar input, "
           "#cell-edit input, #cell-edit button, #tabs button, #tab-params input, #tab-scope input, #tab-scope select, "
-          "#tab-modes input, #tab-modes button, #tab-text button, #tab-text textarea")
+          "#tab-modes input, #tab-modes button, #tab-text button, #tab-text textarea, dialog button, dialog input, "
+          "dialog select")
 SHORTCUTS = {"#undo": "Ctrl+Z", "#redo": "Ctrl+Shift+Z", "#save": "Ctrl+S", "#lock": "(L)", "#unlock": "(U)",
              "#cut": "(X)", "#clear-selection": "(C)", "#join": "(J)", "#restart": "(R)"}
 UNITS = {"#edit-mass": "[kg]", "#edit-damping": "[N·s/m]", "#edit-tension": "[N/m]", "#join-tension": "[N/m]",
@@ -265,11 +266,14 @@ def test_every_tool_and_field_has_a_tooltip_and_question_mark_opens_the_help(tmp
     from selenium.webdriver.common.keys import Keys
 
     with page(tmp_path, "cymatic_string", "controls_help") as driver:
+        driver.find_element("css selector", "#mapping-open").click()          # its rows are made when opened
+        driver.find_element("css selector", "#mapping-add").click()
         untitled = driver.execute_script(
             "return [...document.querySelectorAll(arguments[0])].filter((e) => !(e.closest('[title]') || {}).title)"
             ".map((e) => e.id || e.outerHTML.slice(0, 80))", FIELDS)
         title = {s: driver.find_element("css selector", s).get_attribute("title") for s in (*SHORTCUTS, *UNITS)}
         options = [o.text for o in driver.find_elements("css selector", "#tool option")]
+        driver.find_element("css selector", "#mapping-cancel").click()
         help_box = driver.find_element("css selector", "#help")
         assert not help_box.is_displayed()
         driver.find_element("css selector", "#title").click()

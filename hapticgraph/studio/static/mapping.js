@@ -3,6 +3,10 @@
 import { $, el } from "./dom.js";
 
 const FIELDS = ["param", "source", "address", "device", "min", "max", "curve", "smooth"];
+const TITLES = ["the live parameter the controller moves", "a MIDI controller (cc) or an OSC address",
+  "the MIDI cc number (0 … 127) or the OSC address (/…)", "the MIDI port or OSC listener (empty: the first)",
+  "the parameter's value at the controller's bottom [its unit]", "the parameter's value at the controller's top [its unit]",
+  "how the controller's travel maps to the value", "smoothing time [s]", "remove this row"];
 
 export class Mapping {
   constructor(ctx) {
@@ -31,9 +35,11 @@ export class Mapping {
     const num = (name, v) => el("input", { name, type: "number", step: "any", value: v ?? "" });
     const curve = el("select", { name: "curve" }, el("option", { value: "linear", text: "linear" }), el("option", { value: "exponential", text: "exponential" }));
     curve.value = m.curve || "linear";
-    const tr = el("tr", { "data-entry": JSON.stringify(m) }, ...[param, source, el("input", { name: "address", value: m.osc ?? m.cc ?? "" }),
+    const cells = [param, source, el("input", { name: "address", value: m.osc ?? m.cc ?? "" }),
       el("input", { name: "device", value: m.device ?? "" }), num("min", m.min), num("max", m.max), curve, num("smooth", m.smooth),
-      el("button", { text: "×", onclick: () => tr.remove() })].map((c) => el("td", {}, c)));
+      el("button", { text: "×", onclick: () => tr.remove() })];
+    cells.forEach((c, i) => c.setAttribute("title", TITLES[i]));
+    const tr = el("tr", { "data-entry": JSON.stringify(m) }, ...cells.map((c) => el("td", {}, c)));
     $("#mapping-table tbody").append(tr);
   }
 
