@@ -305,3 +305,24 @@ def test_the_page_loads_with_no_404_and_a_favicon(tmp_path):
     assert missing == [], missing
     assert icon and icon.endswith(".svg"), icon
     assert fetched[0] == 200 and fetched[1].startswith("image/svg+xml") and "<svg" in fetched[2], fetched
+
+
+def test_a_refused_cell_edit_goes_back_to_the_value_in_effect(tmp_path):
+    from selenium.webdriver.common.keys import Keys
+    from selenium.webdriver.support.ui import Select
+
+    with page(tmp_path, "cymatic_sheet", "controls_cell_edit") as driver:
+        Select(driver.find_element("css selector", "#look")).select_by_value("top")
+        click_cell(driver, 0, 5 * 16 + 6)
+        until(lambda: driver.find_element("css selector", "#cell-edit-what").text == "sheet[5, 6]", 10, "no selection")
+        mass = driver.find_element("css selector", "#edit-mass")
+        mass.send_keys(Keys.CONTROL, "a")
+        mass.send_keys("1e-9", Keys.ENTER)                 # far below the smallest stable mass
+        note = until(lambda: driver.execute_script(
+            "const n = document.querySelector('#cell-edit .refusal'); return n && !n.hidden && n.textContent"), 30,
+            "no refusal beside the selection's fields")
+        until(lambda: mass.get_attribute("value") == "0.0002", 10,
+              lambda: f"the mass field keeps the refused value: {mass.get_attribute('value')}")
+        text = send(driver, {"cmd": "state"})["result"]["text"]
+    assert "sheet" in note
+    assert "cells:" not in text

@@ -241,7 +241,18 @@ export class Tools {
     return this.ctx.send({ cmd: "join", a: this.name(a), b: this.name(b), tension: this.joinTension() });
   }
 
+  // the typed values to the patch; a refused one is said under the fields, which go back to the
+  // values in effect
   async _edit() {
+    const r = await this._send();
+    const note = $("#cell-edit-refusal");
+    note.hidden = r.ok;
+    note.textContent = r.ok ? "" : (r.errors || [r.error]).join("\n");
+    if (!r.ok) this._fillEdit();
+    return r;
+  }
+
+  async _send() {
     const byPart = new Map();
     for (const c of this.selection) {
       const l = this.desc.byId[c.lattice];
