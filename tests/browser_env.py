@@ -9,6 +9,7 @@ import os
 import pathlib
 import queue
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -18,6 +19,7 @@ import urllib.parse
 
 import pytest
 
+PATCHES = pathlib.Path(__file__).resolve().parent.parent / "patches"
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"
 START_S = 120          # the studio's first line: importing, loading and compiling the patch
@@ -114,6 +116,20 @@ def open_page(driver, url, deadline_s=60):
     driver.get(url)
     until(lambda: driver.execute_script("return document.body.dataset.ready === '1'"), deadline_s,
           "the page did not get the instrument")
+
+
+@contextlib.contextmanager
+def patch_page(tmp_path, name, what):
+    """The studio on a copy of patches/NAME.yaml, and a browser on its page (a screenshot of it
+    kept in the test's artifacts, named `what`)."""
+    browser_or_skip()
+    patch = tmp_path / f"{name}.yaml"
+    shutil.copyfile(PATCHES / f"{name}.yaml", patch)
+    out = artifacts(tmp_path, what)
+    with studio(patch, out) as url, chromium(out) as driver:
+        open_page(driver, url)
+        yield driver
+        driver.save_screenshot(str(out / f"{what}.png"))
 
 
 def until(check, deadline_s, what):

@@ -380,9 +380,7 @@ class Network(LinearGroup):
 def _law_arrays(law, rows):
     """A law's arrays: its links' points a and b, parameter rows (padded) and output slots."""
     width = max(len(r[2]) for r in rows)
-    prm = np.zeros((len(rows), max(width, 1)))
-    for j, r in enumerate(rows):
-        prm[j, :len(r[2])] = r[2]
+    prm = np.array([list(r[2]) + [0.0] * (max(width, 1) - len(r[2])) for r in rows], dtype=float)
     return {f"{law.name}_a": np.array([r[0] for r in rows], dtype=IDX),
             f"{law.name}_b": np.array([r[1] for r in rows], dtype=IDX),
             f"{law.name}_p": prm, f"{law.name}_o": np.array([r[3] for r in rows], dtype=IDX)}

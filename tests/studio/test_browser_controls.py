@@ -3,28 +3,9 @@ through in a real browser with the mouse: sliders that can be dragged and show w
 refusals beside the control, edits shown pending, a lattice-less patch's tools, undo after a
 runaway, a join's tension asked, one drag one undo entry, tooltips and the help overlay, no 404.
 `hapticgraph studio` on loopback, Debian's chromium through Selenium."""
-import contextlib
-import pathlib
-import shutil
 import time
 
-from browser_env import artifacts, browser_or_skip, chromium, open_page, send, studio, until
-
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-PATCHES = ROOT / "patches"
-
-
-@contextlib.contextmanager
-def page(tmp_path, name, what):
-    """The studio on a copy of patches/NAME.yaml, and a browser on its page."""
-    browser_or_skip()
-    patch = tmp_path / f"{name}.yaml"
-    shutil.copyfile(PATCHES / f"{name}.yaml", patch)
-    out = artifacts(tmp_path, what)
-    with studio(patch, out) as url, chromium(out) as driver:
-        open_page(driver, url)
-        yield driver
-        driver.save_screenshot(str(out / f"{what}.png"))
+from browser_env import patch_page, send, until
 
 
 def in_effect(driver, block, param):
@@ -55,7 +36,7 @@ def drag(driver, slider, start_px, steps, step_px, pause=0.15):
 def test_a_lattice_slider_drags_stays_inside_the_bound_and_shows_what_is_in_effect(tmp_path):
     from selenium.webdriver.common.keys import Keys
 
-    with page(tmp_path, "cymatic_string", "controls_slider") as driver:
+    with patch_page(tmp_path, "cymatic_string", "controls_slider") as driver:
         # the mass: each step changes the tension's stability bound; the slider stays under the mouse
         _, _, slider = shown(driver, "str", "mass")
         start = in_effect(driver, "str", "mass")["value"]
@@ -127,7 +108,7 @@ def click_cell(driver, lattice, flat):
 def test_an_edit_is_shown_pending_and_a_second_click_meanwhile_adds_nothing(tmp_path):
     from selenium.webdriver.support.ui import Select
 
-    with page(tmp_path, "cymatic_sheet", "controls_pending") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "controls_pending") as driver:
         Select(driver.find_element("css selector", "#look")).select_by_value("top")
         Select(driver.find_element("css selector", "#tool")).select_by_value("mic")
         Select(driver.find_element("css selector", "#place-which")).select_by_value("")      # + new microphone
@@ -154,7 +135,7 @@ LATTICE_TOOLS = ("#tool", "#lock", "#unlock", "#cut", "#join", "#clear-selection
 
 
 def test_a_patch_without_a_lattice_disables_the_lattice_tools_and_says_what_they_apply_to(tmp_path):
-    with page(tmp_path, "fig8_pluck_damp", "controls_waveguide") as driver:
+    with patch_page(tmp_path, "fig8_pluck_damp", "controls_waveguide") as driver:
         assert driver.execute_script("return window.studio.desc.lattices.length") == 0
         enabled = [s for s in LATTICE_TOOLS if driver.find_element("css selector", s).is_enabled()]
         note = driver.find_element("css selector", "#tools-note")
@@ -166,7 +147,7 @@ def test_a_patch_without_a_lattice_disables_the_lattice_tools_and_says_what_they
 
 
 def test_a_lattice_patch_has_its_tools(tmp_path):
-    with page(tmp_path, "cymatic_string", "controls_lattice_tools") as driver:
+    with patch_page(tmp_path, "cymatic_string", "controls_lattice_tools") as driver:
         assert driver.find_element("css selector", "#tool").is_enabled()
         assert not driver.find_element("css selector", "#tools-note").is_displayed()
 
@@ -178,7 +159,7 @@ def status_t(driver):
 def test_undo_after_a_runaway_resumes_the_sound(tmp_path):
     from selenium.webdriver.common.keys import Keys
 
-    with page(tmp_path, "cymatic_sheet", "controls_runaway") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "controls_runaway") as driver:
         box = driver.find_element("css selector", "#param-hit-force")
         box.send_keys(Keys.CONTROL, "a")
         box.send_keys("1e6", Keys.ENTER)                    # a strike a million times too hard
@@ -207,7 +188,7 @@ def test_a_join_asks_its_tension_with_the_patchs_own_as_default(tmp_path):
     from selenium.webdriver.common.keys import Keys
     from selenium.webdriver.support.ui import Select
 
-    with page(tmp_path, "string_drives_plate", "controls_join") as driver:
+    with patch_page(tmp_path, "string_drives_plate", "controls_join") as driver:
         Select(driver.find_element("css selector", "#look")).select_by_value("top")
         Select(driver.find_element("css selector", "#tool")).select_by_value("join")
         field = driver.find_element("css selector", "#join-tension")
@@ -229,7 +210,7 @@ def test_one_drag_is_one_undo_entry_and_ctrl_z_works_on_a_focused_slider(tmp_pat
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
 
-    with page(tmp_path, "cymatic_string", "controls_undo") as driver:
+    with patch_page(tmp_path, "cymatic_string", "controls_undo") as driver:
         before = in_effect(driver, "str", "damping")["value"]
         _, _, slider = shown(driver, "str", "damping")
         drag(driver, slider, slider.rect["width"] / 2, 10, 6)
@@ -265,7 +246,7 @@ def test_every_tool_and_field_has_a_tooltip_and_question_mark_opens_the_help(tmp
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.keys import Keys
 
-    with page(tmp_path, "cymatic_string", "controls_help") as driver:
+    with patch_page(tmp_path, "cymatic_string", "controls_help") as driver:
         driver.find_element("css selector", "#mapping-open").click()          # its rows are made when opened
         driver.find_element("css selector", "#mapping-add").click()
         untitled = driver.execute_script(
@@ -293,7 +274,7 @@ def test_every_tool_and_field_has_a_tooltip_and_question_mark_opens_the_help(tmp
 
 
 def test_the_page_loads_with_no_404_and_a_favicon(tmp_path):
-    with page(tmp_path, "cymatic_sheet", "controls_favicon") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "controls_favicon") as driver:
         time.sleep(1.0)                           # the browser asks for the icon after the page
         log = driver.get_log("browser")
         icon = driver.execute_script("const l = document.querySelector('link[rel=icon]'); return l && l.href")
@@ -311,7 +292,7 @@ def test_a_refused_cell_edit_goes_back_to_the_value_in_effect(tmp_path):
     from selenium.webdriver.common.keys import Keys
     from selenium.webdriver.support.ui import Select
 
-    with page(tmp_path, "cymatic_sheet", "controls_cell_edit") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "controls_cell_edit") as driver:
         Select(driver.find_element("css selector", "#look")).select_by_value("top")
         click_cell(driver, 0, 5 * 16 + 6)
         until(lambda: driver.find_element("css selector", "#cell-edit-what").text == "sheet[5, 6]", 10, "no selection")

@@ -2,30 +2,11 @@
 browser: the scope's and the spectrogram's axes (session time, Hz, dB, negative labels whole),
 the wiring graph's text size, the stage's legend and markers, the 3-D camera, and a waveguide
 patch drawn on the stage. `hapticgraph studio` on loopback, Debian's chromium through Selenium."""
-import contextlib
-import pathlib
-import shutil
 import time
 
 import pytest
 
-from browser_env import artifacts, browser_or_skip, chromium, open_page, send, studio, until
-
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-PATCHES = ROOT / "patches"
-
-
-@contextlib.contextmanager
-def page(tmp_path, name, what):
-    """The studio on a copy of patches/NAME.yaml, and a browser on its page."""
-    browser_or_skip()
-    patch = tmp_path / f"{name}.yaml"
-    shutil.copyfile(PATCHES / f"{name}.yaml", patch)
-    out = artifacts(tmp_path, what)
-    with studio(patch, out) as url, chromium(out) as driver:
-        open_page(driver, url)
-        yield driver
-        driver.save_screenshot(str(out / f"{what}.png"))
+from browser_env import patch_page, send, until
 
 
 def tab(driver, name):
@@ -38,7 +19,7 @@ def session_t(driver):
 
 
 def test_the_scope_counts_in_session_time(tmp_path):
-    with page(tmp_path, "cymatic_sheet", "scope_time") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "scope_time") as driver:
         until(lambda: session_t(driver) > 2.0, 30, "the session's t did not pass 2 s")
         tab(driver, "scope")
         until(lambda: driver.execute_script("return window.studio.scopes.len > 4410"), 30, "no probe data")
@@ -62,7 +43,7 @@ def _ink_at_left(driver, selector):
 
 
 def test_negative_axis_labels_keep_their_minus_sign(tmp_path):
-    with page(tmp_path, "cymatic_sheet", "scope_minus") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "scope_minus") as driver:
         tab(driver, "scope")
         until(lambda: driver.execute_script("return window.studio.scopes.len > 4410"), 30, "no probe data")
         labels = until(lambda: driver.execute_script(
@@ -75,7 +56,7 @@ def test_negative_axis_labels_keep_their_minus_sign(tmp_path):
 
 
 def test_the_spectrogram_fills_its_panel_with_axes_in_hz_s_and_db(tmp_path):
-    with page(tmp_path, "cymatic_sheet", "spectrogram") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "spectrogram") as driver:
         tab(driver, "scope")
         axes = until(lambda: driver.execute_script(
             "const a = window.studio.scopes.spectrogram.axes; return a && a.columns >= 20 && a"), 30,
@@ -104,7 +85,7 @@ def test_the_spectrogram_fills_its_panel_with_axes_in_hz_s_and_db(tmp_path):
 
 
 def test_the_wiring_graph_is_readable(tmp_path):
-    with page(tmp_path, "fig8_pluck_damp", "wiring") as driver:
+    with patch_page(tmp_path, "fig8_pluck_damp", "wiring") as driver:
         tab(driver, "wiring")
         sizes = until(lambda: driver.execute_script(
             "return [...document.querySelectorAll('#wiring text')].map(t =>"
@@ -145,7 +126,7 @@ def _hidden_cells(seen, margin=4):
 
 @pytest.mark.parametrize("name", ["cymatic_string", "cymatic_sheet", "hyper_4d"])
 def test_every_cell_is_in_view_at_start(tmp_path, name):
-    with page(tmp_path, name, f"start_{name}") as driver:
+    with patch_page(tmp_path, name, f"start_{name}") as driver:
         time.sleep(0.5)
         seen = driver.execute_script(FREE_REGION)
     hidden = _hidden_cells(seen)
@@ -157,7 +138,7 @@ def test_the_block_camera_shows_everything_keeps_the_users_view_and_zooms_to_the
     from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
     from selenium.webdriver.support.ui import Select
 
-    with page(tmp_path, "cymatic_block", "camera") as driver:
+    with patch_page(tmp_path, "cymatic_block", "camera") as driver:
         time.sleep(0.5)
         start = driver.execute_script(FREE_REGION)
         framed = driver.execute_script(CAMERA)
@@ -207,7 +188,7 @@ return area;
 
 
 def test_the_stage_has_a_legend_named_microphones_and_true_marks_for_locked_cut_and_heavy_cells(tmp_path):
-    with page(tmp_path, "cymatic_sheet", "marks") as driver:
+    with patch_page(tmp_path, "cymatic_sheet", "marks") as driver:
         # every microphone named on the stage, beside its line
         until(lambda: driver.execute_script(
             "return [...document.querySelectorAll('#stage .label.mic')].filter(e => e.style.display !== 'none').length === 2"),
@@ -247,7 +228,7 @@ def test_the_stage_has_a_legend_named_microphones_and_true_marks_for_locked_cut_
 
 
 def test_a_waveguide_patch_is_drawn_on_the_stage_and_the_modes_tab_says_what_it_can(tmp_path):
-    with page(tmp_path, "fig8_pluck_damp", "waveguide") as driver:
+    with patch_page(tmp_path, "fig8_pluck_damp", "waveguide") as driver:
         time.sleep(0.5)
         drawn = driver.execute_script(
             "const w = window.studio.view.waveguide, c = window.studio.view.canvas.getBoundingClientRect();"
@@ -289,7 +270,7 @@ def test_a_waveguide_patch_is_drawn_on_the_stage_and_the_modes_tab_says_what_it_
     ("feedback_comb", ["mix", "line", "fb"]),                                      # mix and fb both at the turn
 ])
 def test_other_waveguides_take_no_detour_and_no_two_blocks_share_a_place(tmp_path, name, loop):
-    with page(tmp_path, name, f"waveguide_{name}") as driver:
+    with patch_page(tmp_path, name, f"waveguide_{name}") as driver:
         layout = until(lambda: driver.execute_script(
             "const w = window.studio.view.waveguide; return w && w.layout"), 10, "nothing drawn")
     assert layout["loop"] == loop, layout["loop"]
