@@ -166,7 +166,7 @@ def fit(patch, target, axes, client=None, **options):
     """Find the values of `axes` ({"block.param": (min, max)} or an axes file) whose render of
     `patch` matches the recording `target`, on Dask; a FitResult (`.values`, `.distance`,
     `.patch_path`, `.rows`). See hapticgraph.sweeps.fit for the options."""
-    from .fitting import fit as _fit
+    from .sweeps import fit as _fit
     return _fit(patch, target, axes, client=client, **options)
 
 

@@ -39,6 +39,19 @@ def test_features_is_public_and_warns_nothing():
     assert hapticgraph.features is real
 
 
+def test_the_public_fit_and_sweep_warn_nothing(tmp_path):
+    """`hapticgraph.fit` and `.sweep` reach the moved modules by their new names (a missing
+    patch fails after the import, with no DeprecationWarning on the way)."""
+    sys.modules.pop("hapticgraph.fitting", None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        with pytest.raises(Exception) as fitted:
+            hapticgraph.fit(tmp_path / "none.yaml", tmp_path / "none.wav", {})
+        with pytest.raises(Exception) as swept:
+            hapticgraph.sweep(tmp_path / "none.yaml", tmp_path / "out")
+    assert not isinstance(fitted.value, DeprecationWarning) and not isinstance(swept.value, DeprecationWarning)
+
+
 def test_the_engines_old_session_name_warns():
     from hapticgraph.graph import engine
     with pytest.warns(DeprecationWarning, match="graph.engine.Runner"):
