@@ -95,7 +95,7 @@ def test_twenty_lowest_modes_of_large_instruments(hg, write_patch, text, closed)
 
 
 def test_plot_mode_of_a_large_sheet(hg, write_patch, tmp_path):
-    pytest.importorskip("matplotlib")
+    pytest.importorskip("matplotlib", reason="matplotlib is in the plot extra (and dev): pip install -e '.[dev]'")
     path = write_patch(_sheet(150, 150))
     proc = hg("plot", path, "--mode", 3, "-o", tmp_path / "m.png", timeout=240)
     assert proc.returncode == 0, proc.stderr
