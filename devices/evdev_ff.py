@@ -56,7 +56,7 @@ import numpy as np
 from ..graph.engine import Driver
 from .errors import DeviceError
 from .evdev_layout import EV_ABS, EV_KEY
-from .limits import force_limit
+from .limits import block_force, force_limit
 
 FULL = 0x7FFF                   # an FF level's full scale (linux/input.h: __s16)
 GAIN_FULL = 0xFFFF
@@ -306,10 +306,7 @@ class EvdevDriver(Driver):
         ext[:, 1] = self.v
 
     def send(self, t0, force):
-        f = float(force[-1]) if len(force) else 0.0
-        if not math.isfinite(f):
-            f = 0.0
-        f = min(max(f, -self.max_force), self.max_force)
+        f = block_force(force, self.max_force)
         self.last_force = f
         if not self.forces or self.lost:
             return

@@ -50,7 +50,7 @@ from .errors import DeviceError
 from .hid_profiles import find_profile, load_profile, shipped_profiles
 from .hid_reports import Decoder
 from .hid_transports import HidapiTransport, ReplayTransport, Transport, list_hid_devices
-from .limits import FORCE_CEILING, force_limit
+from .limits import FORCE_CEILING, block_force, force_limit
 
 RING = 512                  # reports held between the reader thread and the kernel
 MAX_READ_MS = 20            # the longest a read waits, so the thread always notices a stop
@@ -310,10 +310,7 @@ class HidDriver(Driver):
                 return
 
     def send(self, t0, force):
-        f = float(force[-1]) if len(force) else 0.0
-        if not math.isfinite(f):
-            f = 0.0
-        f = min(max(f, -self.max_force), self.max_force)
+        f = block_force(force, self.max_force)
         self.last_force = f
         self.blocks_sent += 1
         if self.profile.output is None or not self.is_open:

@@ -32,4 +32,13 @@ def force_limit(name, driver, value, bound, what):
     return float(value)
 
 
-__all__ = ["FORCE_CEILING", "SIMULATED_MAX_FORCE", "check_limit", "force_limit", "is_number"]
+def block_force(force, max_force):
+    """The one force a driver sends for a block: its last sample, 0 if it is not finite (or the
+    block is empty), clamped to ±max_force."""
+    f = float(force[-1]) if len(force) else 0.0
+    if not math.isfinite(f):
+        f = 0.0
+    return min(max(f, -max_force), max_force)
+
+
+__all__ = ["FORCE_CEILING", "SIMULATED_MAX_FORCE", "block_force", "check_limit", "force_limit", "is_number"]

@@ -17,7 +17,6 @@ recorded so far is kept — when the line fails (unplugged), when no valid frame
 than the profile's `timeout` (silence), or when more than one frame's worth of bytes in a row do
 not make a valid frame (garbage: a wrong baud rate, a wrong profile, a crashed firmware).
 """
-import math
 import threading
 
 import numpy as np
@@ -25,6 +24,7 @@ import numpy as np
 from ..graph.engine import Driver
 from .errors import DeviceError
 from .hid_reports import Decoder
+from .limits import block_force
 
 READ_TIMEOUT = 0.005        # s: the longest a read waits, so the thread notices a stop
 
@@ -140,8 +140,7 @@ class SerialDriver(Driver):
             ext[:] = self.held
 
     def send(self, t0, force):
-        f = float(force[-1]) if len(force) else 0.0
-        f = min(max(f if math.isfinite(f) else 0.0, -self.max_force), self.max_force)
+        f = block_force(force, self.max_force)
         self.last_force = f
         self.pending = f
         self.posted.set()
