@@ -4,7 +4,7 @@ import re
 
 from ..graph.c import export_c
 from ..graph.patch import load
-from .compiler import ExportError
+from .compiler import ExportError, write_sources
 from .lv2 import write_bundle
 from .wasm import write_wasm
 
@@ -20,14 +20,7 @@ def export_name(path):
 
 def write_c(lowered, out):
     """NAME.h and NAME.c in the folder `out` (made if needed); their paths."""
-    os.makedirs(out, exist_ok=True)
-    paths = []
-    for ext, text in (("h", lowered.header), ("c", lowered.source)):
-        path = os.path.join(out, f"{lowered.name}.{ext}")
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
-        paths.append(path)
-    return paths
+    return write_sources(out, {f"{lowered.name}.h": lowered.header, f"{lowered.name}.c": lowered.source})
 
 
 def export(patch, to, out, name=None, overrides=(), install=False):

@@ -34,4 +34,16 @@ def build(sources, output, extra=(), shared=False):
     return output
 
 
-__all__ = ["ExportError", "FLAGS", "build", "compiler"]
+def write_sources(folder, files):
+    """Write {file name: text} into `folder` (made if needed); their paths, in that order."""
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for file, text in files.items():
+        path = os.path.join(folder, file)
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+        paths.append(path)
+    return paths
+
+
+__all__ = ["ExportError", "FLAGS", "build", "compiler", "write_sources"]

@@ -12,7 +12,7 @@ import os
 import re
 import shutil
 
-from .compiler import ExportError, build
+from .compiler import ExportError, build, write_sources
 
 URI = "urn:hapticgraph:{name}"
 CHUNK = 256
@@ -157,7 +157,6 @@ def write_bundle(lowered, out, install=False):
     """DIR/NAME.lv2/ built (and copied into ~/.lv2 when `install`); the paths written."""
     name = lowered.name
     bundle = os.path.join(out, f"{name}.lv2")
-    os.makedirs(bundle, exist_ok=True)
     controls = [p for p in lowered.params if p.slot >= 0]
     indices = [lowered.params.index(p) for p in controls]
     files = {f"{name}.h": lowered.header, f"{name}.c": lowered.source, "manifest.ttl": manifest_ttl(name),
@@ -165,12 +164,7 @@ def write_bundle(lowered, out, install=False):
              f"{name}_lv2.c": WRAPPER.format(name=name, chunk=CHUNK, n_in=len(lowered.inputs), n_out=len(lowered.outputs),
                                              n_ctl=len(controls), uri=URI.format(name=name),
                                              ctl_params=", ".join(map(str, indices + [0])))}
-    paths = []
-    for file, text in files.items():
-        path = os.path.join(bundle, file)
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
-        paths.append(path)
+    paths = write_sources(bundle, files)
     library = os.path.join(bundle, f"{name}.so")
     build([os.path.join(bundle, f"{name}.c"), os.path.join(bundle, f"{name}_lv2.c")], library, shared=True)
     paths.append(library)

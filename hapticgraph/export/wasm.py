@@ -20,7 +20,7 @@ import shlex
 import shutil
 import subprocess
 
-from .compiler import FLAGS, ExportError
+from .compiler import FLAGS, ExportError, write_sources
 
 TARGET = "wasm32-wasi"
 API = ("new", "refused", "free", "reset", "process", "process_float", "set", "get",
@@ -242,18 +242,12 @@ def write_wasm(lowered, out):
     """DIR/NAME.wasm, NAME.js and index.html (and the C they are built from); the paths written."""
     name = lowered.name
     wasm_compiler()            # before anything is written
-    os.makedirs(out, exist_ok=True)
     meta = _meta_js(lowered)
     files = {f"{name}.h": lowered.header, f"{name}.c": lowered.source,
              f"{name}_host.c": HOST.format(name=name, upper=name.upper()),
              f"{name}.js": WORKLET.format(name=name, meta=meta, cls=f"Hg_{name}"),
              "index.html": PAGE.format(name=name, meta=meta, title=html.escape(lowered.patch.name or name))}
-    paths = []
-    for file, text in files.items():
-        path = os.path.join(out, file)
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
-        paths.append(path)
+    paths = write_sources(out, files)
     module = os.path.join(out, f"{name}.wasm")
     build_wasm([os.path.join(out, f"{name}.c"), os.path.join(out, f"{name}_host.c")], module, name)
     return paths + [module]
