@@ -29,6 +29,21 @@ from .limits import FORCE_CEILING
 NUMBER = {"type": "number"}
 MAX_FORCE_SETTING = {**NUMBER, "exclusiveMinimum": 0, "maximum": FORCE_CEILING, "default": 4.0,
                      "description": "every force sent to the device is clamped to this [N]"}
+USB_ID = {"type": "integer", "minimum": 0, "maximum": 0xFFFF}
+
+
+def match_setting(description, **properties):
+    """The schema of a `match:` key naming a connected device: by USB vendor and product ids, a
+    part of its name, and which of several (`index`), with a kind's own `properties` besides."""
+    return {"type": "object", "minProperties": 1, "additionalProperties": False, "description": description,
+            "properties": {"vendor": {**USB_ID, "description": "USB vendor id"},
+                           "product": {**USB_ID, "description": "USB product id"},
+                           "name": {"type": "string", "minLength": 1, "description": "a part of the device's name"},
+                           **properties,
+                           "index": {"type": "integer", "minimum": 0,
+                                     "description": "which of the matching devices (0: the first)"}}}
+
+
 # keyframe keys of a script that are not extra axes: the time and the haptic block's own ports and settings
 SCRIPT_RESERVED = ("t", *(p.name for p in Haptic.outputs + Haptic.inputs),
                    *(n for n, p in Haptic.params.items() if not p.internal))
@@ -145,5 +160,5 @@ class InputKind:
         raise NotImplementedError(f"input kind {self.name!r} opens no driver")
 
 
-__all__ = ["MAX_FORCE_SETTING", "NUMBER", "SCRIPT_RESERVED", "DriverKind", "InputKind", "attach", "attached",
+__all__ = ["MAX_FORCE_SETTING", "NUMBER", "SCRIPT_RESERVED", "USB_ID", "match_setting", "DriverKind", "InputKind", "attach", "attached",
            "listed_axes", "same"]

@@ -10,12 +10,10 @@ named as a HID device's: hapticgraph.devices.evdev_layout).
 reaches the device as that fraction. The device is looked for when the patch loads (its ports
 are its capabilities'), so a patch naming one loads only while it is connected.
 """
-from .driver_kind import NUMBER, DriverKind, attach, attached
+from .driver_kind import NUMBER, DriverKind, attach, attached, match_setting
 from .errors import DeviceError
 from . import evdev_layout
 from .evdev_layout import MATCH_KEYS, EvdevMatchError, connected, find, no_kernel_driver
-
-USB_ID = {"type": "integer", "minimum": 0, "maximum": 0xFFFF}
 
 
 class EvdevKind(DriverKind):
@@ -30,17 +28,10 @@ class EvdevKind(DriverKind):
         return {"max_force": {**NUMBER, "exclusiveMinimum": 0, "maximum": 1.0, "default": 0.5,
                               "description": "the largest force sent, a fraction of the device's full scale; "
                                             "the patch's force is in that unit"},
-                "match": {"type": "object", "minProperties": 1, "additionalProperties": False,
-                          "description": "the input device (/dev/input/event*)",
-                          "properties": {"vendor": {**USB_ID, "description": "USB vendor id"},
-                                         "product": {**USB_ID, "description": "USB product id"},
-                                         "name": {"type": "string", "minLength": 1,
-                                                  "description": "a part of the device's name"},
-                                         "serial": {"type": "string", "description": "its serial (evdev uniq)"},
-                                         "path": {"type": "string", "minLength": 1,
-                                                  "description": "its node, e.g. /dev/input/event7"},
-                                         "index": {"type": "integer", "minimum": 0,
-                                                   "description": "which of the matching devices (0: the first)"}}},
+                "match": match_setting("the input device (/dev/input/event*)",
+                                       serial={"type": "string", "description": "its serial (evdev uniq)"},
+                                       path={"type": "string", "minLength": 1,
+                                             "description": "its node, e.g. /dev/input/event7"}),
                 "axis": {"enum": ["x", "y"], "default": "x",
                          "description": "the axis the force pushes along (a wheel's is x)"},
                 "slew": {**NUMBER, "exclusiveMinimum": 0, "maximum": 1000, "default": 20.0,

@@ -14,13 +14,12 @@ are its descriptor's, so a patch naming one loads only while it is connected.
 import os
 
 from ..graph.errors import PatchError
-from .driver_kind import DriverKind, attach, attached
+from .driver_kind import USB_ID, DriverKind, attach, attached, match_setting
 from .errors import DeviceError
 from .hid_profiles import find_profile, load_profile, profile_of, shipped_profiles
 from .limits import check_limit
 
 SOURCES = ("profile", "recording", "match")
-USB_ID = {"type": "integer", "minimum": 0, "maximum": 0xFFFF}
 
 
 def _layout_module():
@@ -46,18 +45,11 @@ class HidKind(DriverKind):
                 "recording": {"type": "string", "minLength": 1,
                               "description": "a hid-recorder recording (.hid) beside the patch, played "
                                              "through the device's own descriptor"},
-                "match": {"type": "object", "minProperties": 1, "additionalProperties": False,
-                          "description": "a connected device, named from its report descriptor",
-                          "properties": {"vendor": {**USB_ID, "description": "USB vendor id"},
-                                         "product": {**USB_ID, "description": "USB product id"},
-                                         "name": {"type": "string", "minLength": 1,
-                                                  "description": "a part of the device's name"},
-                                         "serial": {"type": "string"},
-                                         "usage": {"type": "string", "minLength": 1,
-                                                   "description": "a top-level collection: joystick, gamepad, "
-                                                                  "mouse, keyboard, multi_axis, consumer"},
-                                         "index": {"type": "integer", "minimum": 0,
-                                                   "description": "which of the matching devices (0: the first)"}}},
+                "match": match_setting("a connected device, named from its report descriptor",
+                                       serial={"type": "string"},
+                                       usage={"type": "string", "minLength": 1,
+                                              "description": "a top-level collection: joystick, gamepad, "
+                                                             "mouse, keyboard, multi_axis, consumer"}),
                 "vendor_id": {**USB_ID, "description": "USB vendor id, if not the profile's"},
                 "product_id": {**USB_ID, "description": "USB product id, if not the profile's"},
                 "serial": {"type": "string", "description": "open the device with this serial number"},
