@@ -1,5 +1,6 @@
 """An exported patch as an LV2 plugin: the bundle `NAME.lv2/` holds `manifest.ttl`, `NAME.ttl`
-(an audio port for each audio input and output, a CV port for each device input and force, a
+(an audio port for each audio input and output, a CV port for each device input and force that a
+host without CV may leave unconnected (lv2:connectionOptional: that column is 0, that force dropped), a
 control port for each live parameter with its range and default) and `NAME.so`, built by the
 system's C compiler from the exported C and a small wrapper (`NAME_lv2.c`, kept in the bundle).
 
@@ -15,6 +16,9 @@ import shutil
 from .compiler import ExportError, build, write_sources
 
 URI = "urn:hapticgraph:{name}"
+# a host without CV (lv2apply, most hosts) may connect a device's port to NULL: the wrapper then
+# reads that column as 0 and drops that force
+OPTIONAL = ";\n        lv2:portProperty lv2:connectionOptional"
 CHUNK = 256
 
 WRAPPER = """\
@@ -133,10 +137,12 @@ def _number(x):
 def plugin_ttl(lowered, controls):
     """NAME.ttl: the plugin and its ports, in the wrapper's order (inputs, outputs, controls)."""
     taken, ports = set(), []
-    for p in lowered.inputs:
-        ports.append(_port(len(ports), "Input", "Audio" if p.kind == "audio" else "CV", p.name, taken))
-    for p in lowered.outputs:
-        ports.append(_port(len(ports), "Output", "Audio" if p.kind == "audio" else "CV", p.name, taken))
+    for direction, columns in (("Input", lowered.inputs), ("Output", lowered.outputs)):
+        for p in columns:
+            if p.kind == "audio":
+                ports.append(_port(len(ports), direction, "Audio", p.name, taken))
+            else:
+                ports.append(_port(len(ports), direction, "CV", p.name, taken, OPTIONAL))
     for p in controls:
         extra = f";\n        lv2:default {_number(p.default)}"
         for key, bound in (("minimum", p.low), ("maximum", p.high)):
