@@ -181,22 +181,23 @@ class Allocator:
 
     # -- MPE -------------------------------------------------------------------------------------
     def _zone_messages(self, messages):
-        """Apply the sample's RPN messages (in order); the rest that concern the played zones,
-        all-notes-off on a master channel spread over its zone's channels."""
+        """Apply the sample's RPN messages (in order), then keep the rest that concern the zones
+        as those left them (a note on a channel a Configuration Message at that sample moved out
+        is not played), all-notes-off on a master channel spread over its zone's channels."""
         zones, out = self.zones, []
-        for m in messages:
-            if m.type == "control_change" and m.control in RPN_CONTROLS:
-                moved, ranges = zones.configure(m)
-                for v in range(self.count):
-                    if self.held[v] and self.owner[v][0] in moved:
-                        self._release(v)
-                if ranges:
-                    self._retune()
-            elif zones.zone_of(m.channel) is not None:
-                if m.type == "control_change" and m.control in ALL_OFF and zones.is_master(m.channel):
-                    out += [m.copy(channel=c) for c in zones.channels(zones.zone_of(m.channel))]
-                else:
-                    out.append(m)
+        rpn = [m.type == "control_change" and m.control in RPN_CONTROLS for m in messages]
+        for m in (m for m, is_rpn in zip(messages, rpn) if is_rpn):
+            moved, ranges = zones.configure(m)
+            for v in range(self.count):
+                if self.held[v] and self.owner[v][0] in moved:
+                    self._release(v)
+            if ranges:
+                self._retune()
+        for m in (m for m, is_rpn in zip(messages, rpn) if not is_rpn and zones.zone_of(m.channel) is not None):
+            if m.type == "control_change" and m.control in ALL_OFF and zones.is_master(m.channel):
+                out += [m.copy(channel=c) for c in zones.channels(zones.zone_of(m.channel))]
+            else:
+                out.append(m)
         return out
 
     def _expression(self, m):

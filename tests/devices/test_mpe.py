@@ -240,3 +240,19 @@ def test_rpn_cents_and_a_repeated_configuration_message(write_patch, tmp_path):
     assert offset(r, 0, 20, 60) == near(24) and offset(r, 0, 30, 60) == near(6.25)
     assert offset(r, 0, 40, 60) == near(6.25)
     assert offset(r, 0, 50, 60) == near(24) and r["gate"][50:, 0].min() == 1.0
+
+
+@pytest.mark.parametrize("first", ["note", "mcm"])
+def test_a_note_on_a_channel_the_configuration_message_of_its_sample_moves_out_is_not_played(
+        write_patch, tmp_path, first):
+    """The RPN messages of a sample come first: an MCM shrinking the lower zone to 2 members at
+    the sample of a note-on on channel 5 (index 4) leaves that note out, in either order (before,
+    the note came in by the old zones and the allocator raised a TypeError on its channel)."""
+    from hapticgraph.devices.midi import write_midi_file
+    g = gestures()
+    note, mcm = [g.on(4, 60)], list(g.mcm(0, 2))
+    events = [(10, g.on(1, 64))] + [(20, m) for m in (note + mcm if first == "note" else mcm + note)]
+    write_midi_file(tmp_path / "m.mid", events, RATE)
+    r = play(write_patch, tmp_path / "m.mid", "lower", seconds=0.002, voices=2)
+    assert r["gate"][15].sum() == 1.0 and r["gate"][25].sum() == 1.0    # channel 2's note only
+    assert offset(r, int(np.argmax(r["gate"][25])), 25, 64) == near(0.0)
