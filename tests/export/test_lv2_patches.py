@@ -3,17 +3,21 @@ ports as the export made them, and `lv2apply` runs it over a WAV file to hapticg
 rounded to float32 (LV2 carries float32; the plugin computes in double), with its controls at
 their defaults and with one set by `-c SYMBOL VALUE` (as `run --set` sets it).
 
-What lv2apply (lilv 0.24) drives, from its source (tools/lv2apply.c): it refuses a plugin without
-an audio input ("Unable to map 1 inputs to 0 ports") and runs one frame per call, reading the
-file's rate; it connects each audio port to the file, each control port to its default or its
-`-c` value, and an lv2:connectionOptional port of another kind to NULL (any other port: "Port N
-has unsupported type"). No shipped patch has an audio input, so each is played here with one
-added (`lv2apply_in`, fed from the WAV file); the device's CV ports, optional, are NULL, which the
-plugin reads as 0: the Python render feeds the same columns, held at 0 (Held), and the forces
-lv2apply drops are not compared. A device held still leaves its instrument silent, so there the
-WAV goes into the instrument (INTO); elsewhere the input is left unconnected and the patch sounds
-as shipped. The MIDI patches (midi_melody, poly_strings) are not played: their MIDI input is
-being redone as an LV2 atom port."""
+What lv2apply (lilv 0.24, tools/lv2apply.c) does with a plugin: it refuses one without an audio
+input ("Unable to map 1 inputs to 0 ports") and one with a port neither audio nor control unless
+that port is lv2:connectionOptional ("Port N has unsupported type"); it reads the file's rate and
+runs one frame per call, each audio port on the file, each control port on one float (its
+default, or the `-c` value). An optional port of another kind is left typed as a control port (the
+port's type starts as 0, TYPE_CONTROL, and nothing changes it): a CV port is connected to one
+float too, so `-c` holds a device's column at a constant, and a force is written there and lost.
+
+No shipped patch has an audio input, so each is played here with one added (`lv2apply_in`, fed
+from the WAV file); it is left unconnected, so the patch sounds as shipped, except where the
+device held still leaves the instrument silent (a finger plucks only when it moves): there the
+WAV goes into the string (INTO). Each device column is held by `-c` at a constant (HELD), which
+the Python render feeds too (Held, as float32 rounds it); the forces are not compared. The MIDI
+patches (midi_melody, poly_strings) are not played: their MIDI input is being redone as an LV2
+atom port."""
 import os
 import re
 import subprocess
@@ -34,15 +38,20 @@ MIDI = {"midi_melody", "poly_strings"}
 PATCHES = sorted(p.stem for p in (ROOT / "patches").glob("*.yaml") if p.stem not in MIDI)
 INPUT = "lv2apply_in"
 SECONDS = 0.2
-# where the WAV file is added in a patch whose device held at 0 leaves it silent: a waveguide's
-# first delay, a lattice's plucked cell (with the audio_in gain that keeps it in range)
-INTO = {
-    "babe_is_sleeping": ("str[7].force", 2.0),
-    "buzz_50hz": ("r1.in", 0.5),
-    "fig7_bowed_string": ("r1.in", 0.5),
-    "fig8_pluck_damp": ("r1.in", 0.5),
-    "force_feedback_mic": ("str[6].force", 2.0),
-    "plucked_string": ("r1.in", 0.5),
+# where the WAV file goes in a patch whose finger held still plucks nothing: a string's first delay
+INTO = {"buzz_50hz": "r1.in", "fig8_pluck_damp": "r1.in", "plucked_string": "r1.in"}
+# each device column held by lv2apply's -c: a finger near or on the string, a bow moving, a
+# trigger and pedals pressed, joysticks off centre
+HELD = {
+    "babe_is_sleeping": {"stick.sensor_x": 0.001, "stick.sensor_v": 0.01, "stick.jx": 0.3, "stick.jy": -0.3,
+                         "pedals.sensor_x": 0.002, "pedals.sensor_v": -0.01, "pedals.swell": 0.5},
+    "buzz_50hz": {"finger.sensor_x": 1e-5, "finger.sensor_v": 0.01, "finger.grip": 0.3},
+    "fig7_bowed_string": {"arm.sensor_x": 0.01, "arm.sensor_v": 0.2},
+    "fig8_pluck_damp": {"finger.sensor_x": 1e-5, "finger.sensor_v": 0.01, "finger.grip": 0.3},
+    "force_feedback_mic": {"joy.sensor_x": 0.001, "joy.sensor_v": 0.01, "joy.fire": 1.0, "joy.slider": 0.5},
+    "plucked_string": {"finger.sensor_x": 0.0002, "finger.sensor_v": 0.01},
+    "string_bound_explicit": {"finger.sensor_x": 0.001, "finger.sensor_v": 0.01},
+    "string_bound_implicit": {"finger.sensor_x": 0.001, "finger.sensor_v": 0.01},
 }
 # a live parameter of each patch set with lv2apply's -c, and its value
 CONTROL = {
@@ -67,6 +76,11 @@ CONTROL = {
 }
 
 
+def _symbol(name):
+    """The LV2 symbol of a port or parameter named BLOCK.NAME (hapticgraph.export.lv2)."""
+    return name.replace(".", "_")
+
+
 class Held(ColumnDriver):
     """A device (or the added audio input) whose columns are given rows: `values[t]` at sample t."""
 
@@ -84,10 +98,9 @@ class Bundle:
     def __init__(self, name, folder):
         self.name, self.folder = name, folder
         text = yaml.safe_load((ROOT / "patches" / f"{name}.yaml").read_text(encoding="utf-8"))
-        into, gain = INTO.get(name, (None, 1.0))
-        text["blocks"][INPUT] = {"type": "audio_in", "file": "input.wav", "gain": gain}
-        if into is not None:
-            text["connect"].append(f"{INPUT}.out -> {into}")
+        text["blocks"][INPUT] = {"type": "audio_in", "file": "input.wav", "gain": 0.5}
+        if name in INTO:
+            text["connect"].append(f"{INPUT}.out -> {INTO[name]}")
         self.patch = folder / f"{name}.yaml"
         self.patch.write_text(yaml.safe_dump(text, sort_keys=False), encoding="utf-8")
         self.rate = int(text["rate"])
@@ -103,23 +116,26 @@ class Bundle:
         assert proc.returncode == 0, proc.stderr
         return proc.stdout
 
-    def apply(self, controls=()):
-        """lv2apply's output over the WAV file (frames × channels, float32 values as float64)."""
-        out = self.folder / f"out{len(controls)}.wav"
+    def apply(self, held, sets=()):
+        """lv2apply's output over the WAV file (frames × channels, float32 values as float64), the
+        device columns `held` ({"DEVICE.COLUMN": value}) and the parameters `sets` ({"BLOCK.PARAM": value})."""
+        out = self.folder / "out.wav"
         args = ["-i", str(self.folder / "input.wav"), "-o", str(out)]
-        for symbol, value in controls:
-            args += ["-c", symbol, repr(value)]
+        for name, value in [*held.items(), *sets]:
+            args += ["-c", _symbol(name), repr(value)]
         self.lilv("lv2apply", *args)
         got, rate = soundfile.read(out, dtype="float64", always_2d=True)
         assert rate == self.rate and soundfile.info(out).subtype == "FLOAT"
         return got
 
-    def render(self, sets=()):
-        """The Python render of the same patch: the devices' columns held at 0, the WAV file in."""
-        patch = hapticgraph.load(self.patch, overrides=sets)
+    def render(self, held, sets=()):
+        """The Python render of the same patch: the device columns held as lv2apply holds them (a
+        control port is a float), the WAV file in, the parameters set as `run --set` sets them."""
+        patch = hapticgraph.load(self.patch, overrides=[f"{name}={float(np.float32(v))!r}" for name, v in sets])
         drivers = {}
         for device, driver in column_drivers(patch).items():
-            values = np.zeros((len(self.wav), len(driver.columns)))
+            row = [np.float32(held.get(f"{device}.{column}", 0.0)) for column in driver.columns]
+            values = np.tile(np.array(row, dtype=np.float64), (len(self.wav), 1))
             if device == INPUT:
                 values[:, 0] = self.wav
             drivers[device] = Held(driver, values)
@@ -146,8 +162,8 @@ def _same_float32(got, expected):
     assert np.all(np.abs(got - expected) <= np.maximum(np.abs(expected) * 2.0 ** -24, 2.0 ** -150))
 
 
-def test_every_patch_played_has_a_control_set():
-    assert sorted(CONTROL) == PATCHES and set(INTO) <= set(PATCHES)
+def test_every_patch_played_is_named_here():
+    assert sorted(CONTROL) == PATCHES and set(INTO) <= set(HELD) <= set(PATCHES)
 
 
 @pytest.mark.parametrize("name", PATCHES)
@@ -165,28 +181,31 @@ def test_lv2info_lists_the_ports_the_export_made(name, bundles):
         direction = "Input" if "Input" in kinds else "Output"
         kind = next(k for k in kinds if k not in ("Input", "Output"))
         listed.append((direction, kind, re.search(r"Name:\s+(\S+)", text).group(1)))
-        # a host without CV leaves a device's column unconnected: the plugin says it may
+        # a host without CV may leave a device's column unconnected: the plugin says it may
         assert ("connectionOptional" in text) == (kind == "CV")
     assert [int(i) for i, _ in ports] == list(range(len(expected)))
     assert listed == expected
     assert sum(kind == "Audio" and d == "Input" for d, kind, _ in listed) == 1      # the input added here
+    assert sorted(HELD.get(name, {})) == sorted(p.name for p in lowered.inputs if p.kind == "cv")   # all held
 
 
 @pytest.mark.parametrize("name", PATCHES)
 def test_lv2apply_gives_the_python_render_rounded_to_float32(name, bundles):
     bundle = bundles(name)
-    got = bundle.apply()
-    expected = bundle.render()
-    assert np.abs(expected).max() > 1e-3                 # it sounds
+    held = HELD.get(name, {})
+    got = bundle.apply(held)
+    expected = bundle.render(held)
+    assert np.abs(expected).max() > 1e-2                 # it sounds
     _same_float32(got, expected)
+    if held:
+        assert not np.array_equal(got, bundle.apply({}))  # what -c holds reaches the plugin
 
 
 @pytest.mark.parametrize("name", PATCHES)
 def test_a_control_set_by_lv2apply_is_run_with_set(name, bundles):
     bundle = bundles(name)
-    param, value = CONTROL[name]
-    got = bundle.apply([(param.replace(".", "_"), value)])
-    # a control port is a float: the plugin sets the parameter to that float's value
-    expected = bundle.render([f"{param}={float(np.float32(value))!r}"])
-    _same_float32(got, expected)
-    assert not np.array_equal(got, bundle.apply())       # the control changed the sound
+    held = HELD.get(name, {})
+    sets = [CONTROL[name]]
+    got = bundle.apply(held, sets)
+    _same_float32(got, bundle.render(held, sets))
+    assert not np.array_equal(got, bundle.apply(held))   # the control changed the sound
