@@ -29,6 +29,7 @@ typedef struct {{ const char *name; const char *unit; double min, max, def; int 
 #define {upper}_N_INPUTS {inputs}
 #define {upper}_N_OUTPUTS {outputs}
 #define {upper}_N_PARAMS {params}
+#define {upper}_MIDI {midi}            /* 1: {name}_midi plays the patch's midi_note / midi_cc blocks */
 
 extern const {name}_port {name}_ports[];     /* inputs, then outputs; a NULL name ends it */
 extern const {name}_param {name}_params[];   /* a NULL name ends it */
@@ -41,6 +42,9 @@ int {name}_process({name} *s, const double *const *in, double *const *out, int n
 int {name}_process_float({name} *s, const float *const *in, float *const *out, int n);   /* the same in float */
 int {name}_set({name} *s, int index, double value);
 double {name}_get(const {name} *s, int index);
+/* a MIDI channel message (status byte first, no running status) at sample `offset` of the next
+   {name}_process call: 0 (a system message is ignored), -1 (too many events waiting), -2 (not one) */
+int {name}_midi({name} *s, int offset, const unsigned char *bytes, int len);
 
 #ifdef __cplusplus
 }}
@@ -62,7 +66,7 @@ def c_string(text):
 def header(plan):
     return HEADER.format(title=plan.title, name=plan.name, guard=plan.name.upper() + "_H", upper=plan.name.upper(),
                          rate=literal(plan.rate), inputs=len(plan.inputs), outputs=len(plan.outputs),
-                         params=len(plan.params))
+                         params=len(plan.params), midi=int(plan.hosted is not None))
 
 
 def _floats(values):
@@ -98,6 +102,8 @@ def struct(plan):
         lines.append(f"    double {field}[{max(1, size)}];")
     lines.append(f"    hg_arr buf[{max(1, len(plan.buffers))}];")
     lines.append(f"    double fin[{max(1, len(plan.inputs))}][{CHUNK}], fout[{max(1, len(plan.outputs))}][{CHUNK}];")
+    if plan.hosted is not None:
+        lines += [f"    double hcol[{len(plan.ext_in)}][{CHUNK}];", f"    {plan.hosted.field}"]
     for k, array in enumerate(plan.arrays):
         lines.append(f"    {NUMBER_ARRAYS[array_kind(array)][1]} a{k}[{max(1, array.size)}];")
     return "\n".join(lines + ["};"]) + "\n"

@@ -4,6 +4,7 @@ through `out`. The block bound to it keeps its own type (a haptic block reads it
 no simulated model is substituted: the host is the device now), and the force it receives is
 clamped to the `max_force` of its entry, as the kernel clamps it for any driver (graph/guard.py)."""
 import math
+from dataclasses import dataclass, field
 
 from ..engine import Driver
 from ..entries import driver_of
@@ -15,6 +16,24 @@ class ColumnDriver(Driver):
 
     def __init__(self, name, columns, max_force):
         self.name, self.columns, self.max_force = name, tuple(columns), max_force
+
+
+@dataclass
+class Hosted:
+    """Device columns an exported instance computes itself, from what the host gives it through
+    `NAME_midi` (hapticgraph.devices.midi_c: a MIDI device's events), instead of reading them in
+    `in`. Its C: `declarations` (types and static functions, before the instance's struct),
+    `field` (its member of the struct), statements of NAME_new (`new`, after the instance is
+    allocated) and NAME_reset (`reset`), `fill` (the columns of samples s->t … s->t + m − 1 into
+    s->hcol[k][0 … m), k a column's index in the program's external columns) and `give` (the body
+    of NAME_midi(s, offset, bytes, len))."""
+    columns: frozenset          # the (device, column) pairs of the program's external columns it fills
+    declarations: str
+    field: str
+    fill: str
+    give: str
+    new: list = field(default_factory=list)
+    reset: list = field(default_factory=list)
 
 
 def _max_force(patch, device):
@@ -56,4 +75,4 @@ def input_kind(patch, device):
     return "audio"
 
 
-__all__ = ["ColumnDriver", "column_drivers", "input_kind"]
+__all__ = ["ColumnDriver", "Hosted", "column_drivers", "input_kind"]

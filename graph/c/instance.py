@@ -40,6 +40,8 @@ def new(plan):
         lines.append(f"    s->buf[{k}].n = hg_capacity({size});")
         lines.append(f"    s->buf[{k}].p = (double *)calloc((size_t)s->buf[{k}].n, sizeof(double));")
         lines.append(f"    if (s->buf[{k}].p == NULL) {{ {n}_free(s); return NULL; }}")
+    if plan.hosted is not None:
+        lines += ["    " + line for line in plan.hosted.new]
     lines += [f"    {n}_reset(s);", "    return s;", "}", ""]
     return "\n".join(lines)
 
@@ -54,6 +56,8 @@ def reset(plan):
     for k in range(len(plan.arrays)):
         lines.append(f"    memcpy(s->a{k}, hg_a{k}_init, sizeof s->a{k});")
     lines += ["    " + line for line in plan.rows]      # the groups' rows at this rate
+    if plan.hosted is not None:
+        lines += ["    " + line for line in plan.hosted.reset]
     return "\n".join(lines + ["}", ""])
 
 
@@ -65,16 +69,51 @@ def free(plan):
 
 
 def process(plan):
+    """NAME_process: the kernel over the host's columns; with hosted columns (NAME_midi's), a
+    static hg_run is that, and NAME_process runs it CHUNK samples at a time, the hosted columns
+    computed for each chunk first."""
+    if plan.hosted is not None:
+        return _run(plan, "static int hg_run") + _chunked(plan)
+    return _run(plan, f"int {plan.name}_process")
+
+
+def _chunked(plan):
+    n, nout = plan.name, len(plan.outputs)
+    forces = [c for c, p in enumerate(plan.outputs) if p.kind == "cv"]
+    cols = [f"s->hcol[{k}]" if j is None else f"in[{j}] + done" for k, j in enumerate(plan.ext_in)]
+    lines = [f"int {n}_process({n} *s, const double *const *in, double *const *out, int n)", "{",
+             f"    const double *col[{max(1, len(cols))}];", f"    double *o[{max(1, nout)}];",
+             "    int done, m, c, k, r, code = 0;", "    (void)in; (void)c; (void)k;",
+             "    for (done = 0; done < n; done += m) {", f"        m = n - done < {CHUNK} ? n - done : {CHUNK};",
+             f"        {plan.hosted.fill}"]
+    lines += [f"        col[{k}] = {c};" for k, c in enumerate(cols)]
+    lines += [f"        for (c = 0; c < {nout}; c++) o[c] = out[c] + done;",
+              "        r = hg_run(s, (const double *const *)col, o, m);", "        if (code == 0) code = r;", "    }"]
+    if forces:
+        lines.append("    if (code != 0) for (k = 0; k < n; k++) { " + " ".join(f"out[{c}][k] = 0.0;" for c in forces) + " }")
+    return "\n".join(lines + ["    return code;", "}", ""])
+
+
+def midi(plan):
+    """NAME_midi: the hosted driver's events (hapticgraph.devices.midi_c), or none to take."""
+    n = plan.name
+    body = [f"    {plan.hosted.give}"] if plan.hosted is not None else [
+        "    (void)s; (void)offset;", "    if (bytes == NULL || len < 1 || bytes[0] < 0x80) return -2;",
+        "    return 0;                 /* no block of the patch reads MIDI */"]
+    return "\n".join([f"int {n}_midi({n} *s, int offset, const unsigned char *bytes, int len)", "{"] + body + ["}", ""])
+
+
+def _run(plan, signature):
     n = plan.name
     args = ["(long long)n", "s->t", f"hg_view(s->state, {len(plan.state)})", f"hg_view(s->live, {len(plan.live)})",
             f"hg_view(s->coef, {len(plan.coef)})", "rec", "ext"]
     args += [f"s->buf[{k}]" for k in range(len(plan.buffers))]
     args += [_view(k, a) for k, a in enumerate(plan.arrays)]
-    lines = [f"int {n}_process({n} *s, const double *const *in, double *const *out, int n)", "{",
+    lines = [f"{signature}({n} *s, const double *const *in, double *const *out, int n)", "{",
              "    hg_rec rec;", "    hg_ext ext;", "    long long code;", "    hg_fpenv saved;",
              "    if (n <= 0) return 0;", "    if (s->dirty) hg_apply(s);",
              f"    rec.col = out; rec.n = n; rec.m = {len(plan.outputs)};",
-             f"    ext.col = in; ext.n = n; ext.m = {len(plan.inputs)};",
+             f"    ext.col = in; ext.n = n; ext.m = {len(plan.ext_in)};",
              "    saved = hg_flush_enter();" if plan.flush_outside else "    saved = 0;",
              f"    code = hg_kernel({', '.join(args)});",
              "    hg_flush_exit(saved);" if plan.flush_outside else "    (void)saved;",
@@ -135,4 +174,4 @@ def set_get(plan):
         f"    return hg_live_slot[index] >= 0 ? s->next_live[hg_live_slot[index]] : {n}_params[index].def;", "}", ""])
 
 
-__all__ = ["free", "new", "process", "process_float", "refused", "reset", "set_get"]
+__all__ = ["free", "midi", "new", "process", "process_float", "refused", "reset", "set_get"]

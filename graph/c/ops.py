@@ -12,7 +12,7 @@ import builtins
 import math
 import operator
 
-from .values import NUMBER_ARRAYS, SCALARS, Val, as_double, known, text
+from .values import NUMBER_ARRAYS, SCALARS, Val, as_double, known, literal, text
 
 _FOLD = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
          ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod, ast.Pow: operator.pow,
@@ -75,7 +75,7 @@ def binop(op, a, b):
     if kind is ast.Pow:
         if _number(a, b) == "i":
             raise ValueError("an integer power of an integer computed per sample (write it with floats)")
-        return Val("f", f"pow({as_double(a)}, {as_double(b)})")
+        return power(a, b)
     if kind in (ast.BitAnd, ast.BitOr, ast.BitXor, ast.LShift, ast.RShift):
         if "f" in (a.kind, b.kind):
             raise ValueError("a bitwise operator on a float")
@@ -190,11 +190,30 @@ def _minmax(fn, args):
     return Val(kind, acc, nonneg=nonneg and kind == "i")
 
 
+def power(a, b):
+    """`a ** b` or math.pow(a, b) of floats as numba computes it: LLVM rewrites a power of a known
+    base 2.0 ** n (n a whole number but 0) as exp2(n·b), and of a known exponent 0.5, 2.0, 1.0,
+    −1.0 as sqrt (its −0 and −∞ as pow's), a·a, a, 1/a. Those round otherwise than the library's
+    pow on about 1 argument in 1,000 (glibc: 2.0 ** b on 20 of 20,000, b ** 2.0 on 16)."""
+    x, y = as_double(a), as_double(b)
+    if a.is_known and float(a.known) > 0.0:
+        mantissa, exponent = math.frexp(float(a.known))
+        if mantissa == 0.5 and exponent != 1:
+            n = exponent - 1
+            return Val("f", f"exp2({y})" if n == 1 else f"exp2({literal(float(n))} * {y})")
+    if b.is_known and float(b.known) in (0.5, 2.0, 1.0, -1.0):
+        return Val("f", {0.5: f"({x} == -INFINITY ? INFINITY : fabs(sqrt({x})))", 2.0: f"({x} * {x})",
+                         1.0: f"(+{x})", -1.0: f"(1.0 / {x})"}[float(b.known)])
+    return Val("f", f"pow({x}, {y})")
+
+
 def math_call(fn, args):
     """A function of the math module."""
     if all(a.is_known for a in args):
         return fold(fn, *args)
     _scalars(fn.__name__, *args)
+    if fn is math.pow:
+        return power(*args)
     spelled = ", ".join(as_double(a) for a in args)
     if fn in MATH_INT:
         return Val("i", f"((long long){MATH_INT[fn]}({spelled}))")

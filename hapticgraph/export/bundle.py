@@ -2,6 +2,7 @@
 import os
 import re
 
+from ..devices.midi_c import midi_hosted
 from ..graph.c import export_c
 from ..graph.patch import load
 from .compiler import ExportError, write_sources
@@ -18,6 +19,12 @@ def export_name(path):
     return name if not name[0].isdigit() else f"p_{name}"
 
 
+def lower(patch, name):
+    """`patch` lowered to C under the prefix `name` (graph/c/export.CPlan), its MIDI blocks played
+    from the events NAME_midi gives (hapticgraph.devices.midi_c)."""
+    return export_c(patch, name, hosted=midi_hosted)
+
+
 def write_c(lowered, out):
     """NAME.h and NAME.c in the folder `out` (made if needed); their paths."""
     return write_sources(out, {f"{lowered.name}.h": lowered.header, f"{lowered.name}.c": lowered.source})
@@ -31,7 +38,7 @@ def export(patch, to, out, name=None, overrides=(), install=False):
         raise ValueError(f"unknown target {to!r}; one of {', '.join(TARGETS)}")
     if isinstance(patch, (str, os.PathLike)):
         patch = load(patch, overrides=overrides)
-    lowered = export_c(patch, name or export_name(patch.file))
+    lowered = lower(patch, name or export_name(patch.file))
     if to == "c":
         return write_c(lowered, out)
     if to == "wasm":
@@ -39,4 +46,4 @@ def export(patch, to, out, name=None, overrides=(), install=False):
     return write_bundle(lowered, out, install=install)
 
 
-__all__ = ["TARGETS", "export", "export_name", "write_c", "ExportError"]
+__all__ = ["TARGETS", "export", "export_name", "lower", "write_c", "ExportError"]

@@ -10,7 +10,7 @@ import pytest
 import wasmtime
 
 from hapticgraph import load
-from hapticgraph.export.bundle import export_name, write_c
+from hapticgraph.export.bundle import export_name, lower, write_c
 from hapticgraph.export.compiler import build
 from hapticgraph.export.wasm import write_wasm
 from hapticgraph.graph.c import export_c
@@ -20,14 +20,18 @@ DRIVER = r"""
 #include <stdlib.h>
 #include "{name}.h"
 
-/* rate total block inputs.bin|- [SAMPLE INDEX VALUE]... : outputs as raw doubles, row by row */
+/* rate total block inputs.bin|- [SAMPLE INDEX VALUE]... : outputs as raw doubles, row by row.
+   $HG_MIDI_EVENTS: a file of MIDI events, 5 int64 each (sample, length, 3 bytes), in order; each
+   given to {name}_midi before the call whose samples (or the sample after them) it falls on */
 int main(int argc, char **argv)
 {{
     double rate = atof(argv[1]);
-    long total = atol(argv[2]), done, k;
+    long total = atol(argv[2]), done, k, n_events = 0, given = 0;
     int block = atoi(argv[3]), n, c, a;
     int nin = {NAME}_N_INPUTS, nout = {NAME}_N_OUTPUTS;
     double *all = NULL, **in, **out;
+    long long *events = NULL;
+    const char *midi = getenv("HG_MIDI_EVENTS");
     {name} *s = {name}_new(rate);
     if (s == NULL) {{
         static char why[8192];
@@ -45,10 +49,26 @@ int main(int argc, char **argv)
         if (f == NULL || fread(all, sizeof(double), (size_t)total * nin, f) != (size_t)total * nin) return 5;
         fclose(f);
     }}
+    if (midi != NULL) {{
+        FILE *f = fopen(midi, "rb");
+        if (f == NULL) return 5;
+        fseek(f, 0, SEEK_END);
+        n_events = ftell(f) / (5 * (long)sizeof(long long));
+        rewind(f);
+        events = calloc((size_t)n_events * 5 + 1, sizeof(long long));
+        if (fread(events, sizeof(long long), (size_t)n_events * 5, f) != (size_t)n_events * 5) return 5;
+        fclose(f);
+    }}
     for (done = 0; done < total; done += n) {{
         for (a = 5; a + 2 < argc; a += 3)
             if (atol(argv[a]) == done && {name}_set(s, atoi(argv[a + 1]), atof(argv[a + 2])) != 0) return 4;
         n = total - done < block ? (int)(total - done) : block;
+        for (; given < n_events && events[given * 5] <= done + n; given++) {{
+            unsigned char b[3];
+            long long *e = events + given * 5;
+            b[0] = (unsigned char)e[2]; b[1] = (unsigned char)e[3]; b[2] = (unsigned char)e[4];
+            if ({name}_midi(s, (int)(e[0] - done), b, (int)e[1]) != 0) return 7;
+        }}
         for (c = 0; c < nin; c++) for (k = 0; k < n; k++) in[c][k] = all[(done + k) * nin + c];
         {name}_process(s, (const double *const *)in, out, n);
         for (k = 0; k < n; k++) for (c = 0; c < nout; c++) fwrite(&out[c][k], sizeof(double), 1, stdout);
@@ -57,6 +77,12 @@ int main(int argc, char **argv)
     return 0;
 }}
 """
+
+
+def midi_records(events):
+    """(sample, mido.Message) events as the driver's records: int64 sample, length, 3 bytes."""
+    rows = [[sample, len(m.bytes())] + (m.bytes() + [0, 0])[:3] for sample, m in events]
+    return np.array(rows, dtype=np.int64).reshape(-1, 5)
 
 
 class Built:
@@ -68,7 +94,8 @@ class Built:
     def param(self, name):
         return [p.name for p in self.lowered.params].index(name)
 
-    def run(self, rate, total, block=1000, inputs=None, sets=(), expect=0):
+    def run(self, rate, total, block=1000, inputs=None, sets=(), expect=0, midi=None):
+        """`midi`: (sample, mido.Message) events, given to NAME_midi a call ahead at most."""
         folder = self.exe.parent
         path = "-"
         if inputs is not None:
@@ -77,7 +104,11 @@ class Built:
         args = [str(self.exe), repr(float(rate)), str(total), str(block), path]
         for at, index, value in sets:
             args += [str(at), str(index), repr(float(value))]
-        proc = subprocess.run(args, capture_output=True, timeout=120)
+        env = dict(os.environ)
+        if midi is not None:
+            env["HG_MIDI_EVENTS"] = str(folder / "midi.bin")
+            midi_records(midi).tofile(env["HG_MIDI_EVENTS"])
+        proc = subprocess.run(args, capture_output=True, timeout=120, env=env)
         assert proc.returncode == expect, proc.stderr.decode()
         self.stderr = proc.stderr.decode("utf-8")
         return np.frombuffer(proc.stdout, dtype=np.float64).reshape(-1, len(self.lowered.outputs))
@@ -88,14 +119,12 @@ class Built:
         return self.stderr.splitlines()
 
 
-@pytest.fixture
-def c_export(tmp_path):
-    """c_export(patch or path, name=None, overrides=()) -> Built."""
+def _c_maker(tmp_path):
     def make(patch, name=None, overrides=()):
         if isinstance(patch, (str, os.PathLike)):
             patch = load(patch, overrides=overrides)
         name = name or export_name(patch.file)
-        lowered = export_c(patch, name)
+        lowered = lower(patch, name)
         folder = tmp_path / name
         write_c(lowered, folder)
         driver = folder / "driver.c"
@@ -104,6 +133,18 @@ def c_export(tmp_path):
         build([driver, folder / f"{name}.c"], exe, extra=["-I", str(folder)])
         return Built(exe, lowered)
     return make
+
+
+@pytest.fixture
+def c_export(tmp_path):
+    """c_export(patch or path, name=None, overrides=()) -> Built."""
+    return _c_maker(tmp_path)
+
+
+@pytest.fixture(scope="module")
+def c_export_module(tmp_path_factory):
+    """c_export for a module's tests to share what they build (a name once per module)."""
+    return _c_maker(tmp_path_factory.mktemp("c_export"))
 
 
 class WasmBuilt:

@@ -87,10 +87,26 @@ def test_plain_c99_without_a_writable_global(c_export, tmp_path):
                                                                        "param karplus_strong_params"))
     exported = sorted(s for s, k in kinds.items() if k in "TRD")
     assert exported == sorted(f"karplus_strong_{f}" for f in ("new", "refused", "free", "reset", "process",
-                                                              "process_float", "set", "get", "ports", "params"))
+                                                              "process_float", "set", "get", "midi", "ports",
+                                                              "params"))
     undefined = {s for s, k in kinds.items() if k == "U"}
     assert undefined <= {"calloc", "free", "memcpy", "memset", "sin", "cos", "floor", "nearbyint", "exp", "fmod",
                          "copysign", "pow", "sqrt", "log", "fabs", "sincos", "vsnprintf"}, undefined
+
+
+def test_the_midi_driver_is_plain_c99_without_a_writable_global(c_export, tmp_path):
+    """poly_strings: six voices and their allocator (hapticgraph.devices.midi_c) in the instance."""
+    built = c_export(ROOT / "patches" / "poly_strings.yaml")
+    source = built.exe.parent / "poly_strings.c"
+    obj = tmp_path / "ps.o"
+    proc = subprocess.run(compiler() + ["-std=c99", "-pedantic-errors", "-Wall", "-Wextra", "-Wno-unused-parameter",
+                                        "-Werror", "-O2", "-c", str(source), "-I", str(source.parent), "-o", str(obj)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    symbols = subprocess.run(["nm", str(obj)], capture_output=True, text=True, check=True).stdout
+    kinds = {line.split()[-1]: line.split()[-2] for line in symbols.splitlines() if len(line.split()) >= 2}
+    assert not [s for s, k in kinds.items() if k in "BbDdCGgSs" and not s.endswith(("_ports", "_params"))], symbols
+    assert "#define POLY_STRINGS_MIDI 1" in (built.exe.parent / "poly_strings.h").read_text(encoding="utf-8")
 
 
 def test_a_check_that_fails_at_the_host_rate_refuses_it(c_export, write_patch, same_bits):

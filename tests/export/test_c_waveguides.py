@@ -7,10 +7,13 @@ The same export built to WebAssembly runs in wasmtime: bit for bit too, but wher
 (musl's sin, cos, exp, pow: 1 ulp from glibc's on a few arguments in a hundred) rounds otherwise than
 the system's, a patch that feeds such a value back drifts by a few ulps: within WASM_DRIFT of its peak
 after a second (docs/export.md, "Same numbers"). The forces stay the same bits in every patch."""
+import os
+
 import numpy as np
 import pytest
 
 import hapticgraph
+from hapticgraph.devices.midi import read_midi_file
 from project_env import ROOT
 
 WAVEGUIDES = ["buzz_50hz", "feedback_comb", "fig7_bowed_string", "fig8_pluck_damp", "midi_melody",
@@ -38,6 +41,16 @@ def _device_probes(patch, lowered):
         if bound:
             probes[k] = f"{bound[0].name}.{SENSOR.get(column, column)}"
     return probes
+
+
+def midi_events(patch, rate):
+    """The (sample, message) events of the patch's MIDI file, as the Python run reads them: what a
+    host gives NAME_midi (None when the patch has no MIDI device)."""
+    files = [spec["file"] for spec in (patch.devices or {}).values() if spec.get("driver") == "midi" and spec.get("file")]
+    if not files:
+        return None
+    assert len(files) == 1                    # NAME_midi is one stream: every MIDI device hears it
+    return read_midi_file(os.path.join(os.path.dirname(str(patch.file)), files[0]), rate)
 
 
 def python_run(path, lowered, seconds, block, patch=None):
@@ -69,7 +82,7 @@ def test_waveguide_patch_in_c_and_wasm_gives_the_bits_of_the_python_run(name, c_
     lowered = built.lowered
     block = 950
     audio, forces, inputs, rate = python_run(path, lowered, 1.0, block)
-    got = built.run(rate, len(audio), block=block, inputs=inputs)
+    got = built.run(rate, len(audio), block=block, inputs=inputs, midi=midi_events(hapticgraph.load(path), rate))
     channels = audio.shape[1]
     assert np.abs(audio).max() > 0.0                      # it sounds
     assert same_bits(got[:, :channels], audio)

