@@ -1,8 +1,10 @@
 """The C runtime every export starts with: the array views the translated functions take, and
 the few operations C spells otherwise than Python (floored `//` and `%`, wraparound indices,
-`min`/`max` keeping the first on a tie, a ring's power-of-two capacity), and the processor's
+`min`/`max` keeping the first on a tie, a ring's power-of-two capacity), the processor's
 flush-to-zero mode around the sample loop, set where the exporting kernel sets it
-(graph/fpenv.py: the SSE control register's FTZ and DAZ bits; nothing elsewhere)."""
+(graph/fpenv.py: the SSE control register's FTZ and DAZ bits; nothing elsewhere), and the
+refusals' formatting: vsnprintf, or under HG_NO_STDIO (a WebAssembly module, which imports
+nothing) a formatter of its own that writes the same text (tests/export/test_wasm_refusal.py)."""
 from ..denormals import FLUSH_BITS
 
 PRELUDE = r"""#include <limits.h>
@@ -96,9 +98,113 @@ static long long hg_capacity(long long n)
     return c;
 }
 
+#ifdef HG_NO_STDIO
+/* vsnprintf without stdio (in a WebAssembly module wasi-libc's would import the host's files),
+   for the conversions the refusals use: %s, %g with a precision, %%. %g as printf writes it: the
+   value's exact decimal expansion rounded once, to nearest, ties to even. */
+typedef struct { char *p; size_t size; int n; } hg_sink;
+static void hg_put(hg_sink *o, char c)
+{
+    if ((size_t)o->n + 1 < o->size) o->p[o->n] = c;
+    o->n++;
+}
+static void hg_puts(hg_sink *o, const char *s) { while (*s) hg_put(o, *s++); }
+/* limbs (base 1e9, least significant first) times f (< 2^30) */
+static void hg_times(uint32_t *limb, int *n, uint32_t f)
+{
+    uint64_t carry = 0, t;
+    int i;
+    for (i = 0; i < *n; i++) {
+        t = (uint64_t)limb[i] * f + carry;
+        limb[i] = (uint32_t)(t % 1000000000u);
+        carry = t / 1000000000u;
+    }
+    for (; carry; carry /= 1000000000u) limb[(*n)++] = (uint32_t)(carry % 1000000000u);
+}
+/* the decimal digits of |v| (finite, not zero), all of them, into d; their count, and in *x the
+   power of ten of the first: |v| = m·2^e = m·5^-e / 10^-e, an integer of at most 804 digits */
+static int hg_digits(double v, char *d, int *x)
+{
+    uint32_t limb[96], f;
+    int n = 0, e, k, j, count = 0;
+    uint64_t m = (uint64_t)ldexp(frexp(fabs(v), &e), 53);
+    e -= 53;
+    for (; m; m /= 1000000000u) limb[n++] = (uint32_t)(m % 1000000000u);
+    for (k = e; k > 0; k -= 29) hg_times(limb, &n, (uint32_t)1 << (k < 29 ? k : 29));
+    for (k = -e; k > 0; k -= 12) {
+        for (f = 1, j = 0; j < (k < 12 ? k : 12); j++) f *= 5;
+        hg_times(limb, &n, f);
+    }
+    for (k = n - 1; k >= 0; k--)
+        for (f = 100000000u; f; f /= 10)
+            if (count || limb[k] / f % 10 || f == 1) d[count++] = (char)('0' + limb[k] / f % 10);
+    *x = count - 1 + (e < 0 ? e : 0);
+    return count;
+}
+static void hg_put_g(hg_sink *o, double v, int p)
+{
+    char d[832];
+    int n, x, i, up;
+    if (signbit(v)) hg_put(o, '-');
+    if (isnan(v) || isinf(v)) { hg_puts(o, isnan(v) ? "nan" : "inf"); return; }
+    if (v == 0.0) { hg_put(o, '0'); return; }
+    if (p < 1) p = 1;
+    n = hg_digits(v, d, &x);
+    if (n > p) {
+        up = d[p] > '5' || (d[p] == '5' && (d[p - 1] - '0') % 2);
+        for (i = p + 1; d[p] == '5' && !up && i < n; i++) up = d[i] != '0';
+        for (n = p, i = p - 1; up && i >= 0; i--) {
+            up = d[i] == '9';
+            d[i] = up ? '0' : (char)(d[i] + 1);
+        }
+        if (up) { d[0] = '1'; x++; }
+    }
+    while (n > 1 && d[n - 1] == '0') n--;
+    if (x < -4 || x >= p) {                        /* style e */
+        hg_put(o, d[0]);
+        if (n > 1) hg_put(o, '.');
+        for (i = 1; i < n; i++) hg_put(o, d[i]);
+        hg_put(o, 'e');
+        hg_put(o, x < 0 ? '-' : '+');
+        if (x < 0) x = -x;
+        if (x >= 100) hg_put(o, (char)('0' + x / 100));
+        hg_put(o, (char)('0' + x / 10 % 10));
+        hg_put(o, (char)('0' + x % 10));
+    } else if (x < 0) {                            /* style f, below 1 */
+        hg_puts(o, "0.");
+        for (i = x + 1; i < 0; i++) hg_put(o, '0');
+        for (i = 0; i < n; i++) hg_put(o, d[i]);
+    } else {
+        for (i = 0; i <= x; i++) hg_put(o, i < n ? d[i] : '0');
+        if (n > x + 1) hg_put(o, '.');
+        for (; i < n; i++) hg_put(o, d[i]);
+    }
+}
+static int hg_vsnprintf(char *p, size_t size, const char *f, va_list ap)
+{
+    hg_sink o;
+    int precision;
+    o.p = p; o.size = size; o.n = 0;
+    for (; *f; f++) {
+        if (*f != '%') { hg_put(&o, *f); continue; }
+        precision = 6;
+        if (f[1] == '.')
+            for (f++, precision = 0; f[1] >= '0' && f[1] <= '9'; f++) precision = precision * 10 + (f[1] - '0');
+        if (f[1] == 0) break;
+        f++;
+        if (*f == 'g') hg_put_g(&o, va_arg(ap, double), precision);
+        else if (*f == 's') hg_puts(&o, va_arg(ap, const char *));
+        else hg_put(&o, *f);                          /* %%: the refusals use no other */
+    }
+    if (size > 0) p[(size_t)o.n < size ? (size_t)o.n : size - 1] = 0;
+    return o.n;
+}
+#else
+#define hg_vsnprintf vsnprintf
+#endif
+
 /* why a rate is refused: problems written one a line into p (size bytes, NUL-ended, cut short);
-   hg_format is snprintf. With HG_NO_STDIO (a WebAssembly module, which imports nothing) nothing is
-   written: the refusal stands, unexplained. */
+   hg_format is snprintf */
 typedef struct { char *p; int size; int used; } hg_why;
 static void hg_format(char *p, int size, const char *format, ...)
 {
@@ -106,22 +212,18 @@ static void hg_format(char *p, int size, const char *format, ...)
     if (size <= 0) return;
     p[0] = 0;
     va_start(ap, format);
-#ifndef HG_NO_STDIO
-    vsnprintf(p, (size_t)size, format, ap);
-#endif
+    hg_vsnprintf(p, (size_t)size, format, ap);
     va_end(ap);
 }
 static void hg_say(hg_why *w, const char *format, ...)
 {
     va_list ap;
-    int room, k = 0;
+    int room, k;
     if (w == NULL || w->p == NULL || w->size <= 1 || w->used >= w->size - 1) return;
     if (w->used > 0) { w->p[w->used++] = '\n'; w->p[w->used] = 0; }
     room = w->size - w->used;
     va_start(ap, format);
-#ifndef HG_NO_STDIO
-    k = vsnprintf(w->p + w->used, (size_t)room, format, ap);
-#endif
+    k = hg_vsnprintf(w->p + w->used, (size_t)room, format, ap);
     va_end(ap);
     if (k > 0) w->used += k < room ? k : room - 1;
 }

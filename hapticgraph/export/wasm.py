@@ -229,7 +229,8 @@ def wasm_compiler():
 def build_wasm(sources, output, name):
     """Link `sources` into the module `output`, exporting NAME's API, malloc and free."""
     exports = [f"{name}_{f}" for f in API] + ["malloc", "free"]
-    # HG_NO_STDIO: no snprintf (wasi-libc's stdio imports fd_write): NAME_refused says no words
+    # HG_NO_STDIO: no vsnprintf (wasi-libc's stdio imports fd_write, fd_seek, fd_close): NAME_refused
+    # writes its reasons with the runtime's own formatter (graph/c/runtime.py)
     command = wasm_compiler() + [f"--target={TARGET}", *FLAGS, "-DHG_NO_STDIO", "-nostartfiles", "-Wl,--no-entry"]
     command += [f"-Wl,--export={e}" for e in exports] + [str(s) for s in sources] + ["-o", str(output), "-lm"]
     proc = subprocess.run(command, capture_output=True, text=True)
