@@ -13,7 +13,6 @@ from hapticgraph import load
 from hapticgraph.export.bundle import export_name, lower, write_c
 from hapticgraph.export.compiler import build
 from hapticgraph.export.wasm import write_wasm
-from hapticgraph.graph.c import export_c
 
 DRIVER = r"""
 #include <stdio.h>
@@ -159,12 +158,13 @@ class WasmBuilt:
     def imports(self):
         return [(i.module, i.name) for i in self.module.imports]
 
-    def run(self, rate, total, block=1000, inputs=None, sets=(), expect=0):
+    def run(self, rate, total, block=1000, inputs=None, sets=(), expect=0, midi=None):
         store = wasmtime.Store(self.engine)
         x = wasmtime.Instance(store, self.module, []).exports(store)
         name = self.lowered.name
         nin, nout = len(self.lowered.inputs), len(self.lowered.outputs)
         h = x[f"{name}_host_new"](store, float(rate), block)
+        midi = list(midi or [])
         if h == 0:
             assert expect == 3, f"{name}_host_new refused {rate}"
             return None
@@ -179,6 +179,10 @@ class WasmBuilt:
                     assert expect == 4
                     return None
             n = min(block, total - done)
+            while midi and midi[0][0] <= done + n:
+                at, message = midi.pop(0)
+                status, d1, d2 = (message.bytes() + [0, 0])[:3]
+                assert x[f"{name}_host_midi"](store, h, at - done, status, d1, d2) == 0
             for k in range(nin):
                 memory.write(store, np.ascontiguousarray(inputs[done:done + n, k], dtype="<f8").tobytes(), at_in[k])
             x[f"{name}_host_process"](store, h, n)
@@ -196,7 +200,7 @@ def wasm_export(tmp_path):
         if isinstance(patch, (str, os.PathLike)):
             patch = load(patch, overrides=overrides)
         name = name or export_name(patch.file)
-        lowered = export_c(patch, name)
+        lowered = lower(patch, name)
         folder = tmp_path / f"{name}_wasm"
         write_wasm(lowered, folder)
         return WasmBuilt(folder / f"{name}.wasm", lowered)

@@ -82,7 +82,8 @@ def test_waveguide_patch_in_c_and_wasm_gives_the_bits_of_the_python_run(name, c_
     lowered = built.lowered
     block = 950
     audio, forces, inputs, rate = python_run(path, lowered, 1.0, block)
-    got = built.run(rate, len(audio), block=block, inputs=inputs, midi=midi_events(hapticgraph.load(path), rate))
+    events = midi_events(hapticgraph.load(path), rate)
+    got = built.run(rate, len(audio), block=block, inputs=inputs, midi=events)
     channels = audio.shape[1]
     assert np.abs(audio).max() > 0.0                      # it sounds
     assert same_bits(got[:, :channels], audio)
@@ -90,7 +91,7 @@ def test_waveguide_patch_in_c_and_wasm_gives_the_bits_of_the_python_run(name, c_
     prog = lowered.prog
     if any(prog.records[col][1].terms for _, col in prog.device_records):
         assert np.abs(forces).max() > 0.0                 # a force was sent where something drives one
-    in_wasm = module.run(rate, len(audio), block=block, inputs=inputs)
+    in_wasm = module.run(rate, len(audio), block=block, inputs=inputs, midi=events)
     assert same_bits(in_wasm[:, channels:], forces)
     if name in LIBM_DRIFT:
         assert np.abs(in_wasm[:, :channels] - audio).max() <= WASM_DRIFT * np.abs(audio).max()

@@ -19,7 +19,7 @@ from hapticgraph.cli.main import main
 from hapticgraph.export.wasm import API
 from hapticgraph.graph.c import export_c
 from project_env import ROOT
-from test_c_waveguides import LATTICES, LIBM_DRIFT, WASM_DRIFT, WAVEGUIDES, python_run
+from test_c_waveguides import LATTICES, LIBM_DRIFT, WASM_DRIFT, WAVEGUIDES, midi_events, python_run
 
 KS = ROOT / "patches" / "karplus_strong.yaml"
 FIG8 = ROOT / "patches" / "fig8_pluck_damp.yaml"
@@ -27,7 +27,7 @@ QUANTUM = 128         # the Web Audio render quantum: the worklet's block
 
 RENDER = """
 const done = arguments[arguments.length - 1];
-const [length, rate, channels, inputs, sets, suspendAt] = arguments;
+const [length, rate, channels, inputs, sets, suspendAt, midi, midiByMessage] = arguments;
 const bytes = (b64) => Uint8Array.from(atob(b64), (c) => c.charCodeAt(0)).buffer;
 const b64 = (buffer) => {
   const u = new Uint8Array(buffer);
@@ -37,7 +37,7 @@ const b64 = (buffer) => {
 };
 (async () => {
   const context = new OfflineAudioContext(channels, length, rate);
-  const node = await window.hapticgraph.start(context, {record: true});
+  const node = await window.hapticgraph.start(context, midi && !midiByMessage ? {record: true, midi} : {record: true});
   const records = [], errors = [], acks = {};
   node.port.onmessage = (e) => {
     if (e.data.out) records.push(e.data);
@@ -53,6 +53,7 @@ const b64 = (buffer) => {
     return acks[mine];
   };
   if (inputs) await send({input: new Float64Array(bytes(inputs))});       // the device's rows, queued
+  if (midi && midiByMessage) for (const [frame, ...data] of midi) await send({midi: data, frame});
   const applied = [];
   if (sets.length) {
     context.suspend(suspendAt).then(async () => {    // rendering stopped: the sets reach the next quantum
@@ -90,15 +91,20 @@ def static_server(folder):
         thread.join(timeout=10)
 
 
-def _render_in_chromium(folder, tmp_path, length, rate, outputs, channels, inputs=None, sets=(), at=0.0):
+def _render_in_chromium(folder, tmp_path, length, rate, outputs, channels, inputs=None, sets=(), at=0.0, midi=None,
+                        midi_by_message=False):
     """The worklet's records (float64, length × outputs), the rendered buffer (float32, length ×
     channels) and the frames the sets applied from. The device's rows go by one message before
-    rendering; the sets by messages while the rendering is suspended at `at` seconds."""
+    rendering; the sets by messages while the rendering is suspended at `at` seconds; MIDI events
+    ((frame, mido.Message)) in processorOptions.midi, or each by a message {midi, frame} before
+    rendering (`midi_by_message`)."""
+    midi = None if midi is None else [[at_, *(m.bytes() + [0, 0])[:3]] for at_, m in midi]
     with static_server(folder) as url, chromium(tmp_path) as driver:
         driver.get(url + "index.html")
         assert driver.execute_script("return document.body.dataset.ready") == "1"
         encoded = None if inputs is None else base64.b64encode(np.ascontiguousarray(inputs, "<f8").tobytes()).decode()
-        got = driver.execute_async_script(RENDER, length, rate, channels, encoded, [list(s) for s in sets], at)
+        got = driver.execute_async_script(RENDER, length, rate, channels, encoded, [list(s) for s in sets], at, midi,
+                                          midi_by_message)
     assert got["errors"] == [], got["errors"]
     assert got["frames"] == list(range(0, length + QUANTUM - 1, QUANTUM))[:len(got["frames"])]
     blocks = np.frombuffer(base64.b64decode(got["records"]), "<f8").reshape(-1, outputs, QUANTUM)
@@ -166,14 +172,31 @@ def test_every_patch_in_the_worklet_gives_what_wasmtime_gives(name, tmp_path, wa
     built = wasm_export(path)
     assert all(p.kind != "audio" for p in built.lowered.inputs)       # every input is a device's row
     audio, forces, inputs, rate = python_run(path, built.lowered, 0.5, 950)
+    events = midi_events(hapticgraph.load(path), rate)
     channels = audio.shape[1]
     records, played, _ = _render_in_chromium(tmp_path / name, tmp_path, len(audio), rate, len(built.lowered.outputs),
-                                             channels, inputs=inputs if len(built.lowered.inputs) else None)
+                                             channels, inputs=inputs if len(built.lowered.inputs) else None,
+                                             midi=events)
     assert np.abs(audio).max() > 0.0
-    assert same_bits(records, built.run(rate, len(audio), block=950, inputs=inputs))     # V8 = wasmtime
+    assert same_bits(records, built.run(rate, len(audio), block=950, inputs=inputs, midi=events))   # V8 = wasmtime
     assert same_bits(records[:, channels:], forces)
     if name in LIBM_DRIFT:
         assert np.abs(records[:, :channels] - audio).max() <= WASM_DRIFT * np.abs(audio).max()
     else:
         assert same_bits(records[:, :channels], audio)
         assert same_bits(played, audio.astype(np.float32))
+
+
+def test_midi_by_message_at_its_frame_plays_as_the_file(tmp_path, wasm_export, same_bits):
+    """poly_strings' chords sent to the worklet one message a MIDI event, {midi: bytes, frame},
+    before the rendering starts: the bits of the Python run, as given in processorOptions."""
+    path = ROOT / "patches" / "poly_strings.yaml"
+    assert main(["export", str(path), "--to", "wasm", "--out", str(tmp_path / "ps")]) == 0
+    built = wasm_export(path)
+    audio, _, _, rate = python_run(path, built.lowered, 0.5, 950)
+    events = midi_events(hapticgraph.load(path), rate)
+    assert len(events) > 10
+    records, _, _ = _render_in_chromium(tmp_path / "ps", tmp_path, len(audio), rate, len(built.lowered.outputs),
+                                        audio.shape[1], midi=events, midi_by_message=True)
+    assert np.abs(audio).max() > 0.0
+    assert np.abs(records - audio).max() <= WASM_DRIFT * np.abs(audio).max()      # poly_strings: musl's libm
