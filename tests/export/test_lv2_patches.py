@@ -142,18 +142,6 @@ class Bundle:
         return hapticgraph.render(patch, SECONDS, drivers=drivers).audio
 
 
-@pytest.fixture(scope="module")
-def bundles(tmp_path_factory):
-    """bundles(name) -> Bundle, each built once for the module."""
-    made = {}
-
-    def get(name):
-        if name not in made:
-            made[name] = Bundle(name, tmp_path_factory.mktemp(name))
-        return made[name]
-    return get
-
-
 def _same_float32(got, expected):
     """lv2apply's samples are the double render rounded once to float32: within half an ulp, 2**-24
     relative, or 2**-150 absolute among float32's subnormals (a lattice's wave front is that small)."""
@@ -166,17 +154,15 @@ def test_every_patch_played_is_named_here():
     assert sorted(CONTROL) == PATCHES and set(INTO) <= set(HELD) <= set(PATCHES)
 
 
-@pytest.mark.parametrize("name", PATCHES)
-def test_lv2info_lists_the_ports_the_export_made(name, bundles):
-    bundle = bundles(name)
-    lowered = export_c(hapticgraph.load(bundle.patch), name)
+def _lists_the_ports_the_export_made(bundle):
+    lowered = export_c(hapticgraph.load(bundle.patch), bundle.name)
     expected = [("Input", "Audio" if p.kind == "audio" else "CV", p.name) for p in lowered.inputs]
     expected += [("Output", "Audio" if p.kind == "audio" else "CV", p.name) for p in lowered.outputs]
     expected += [("Input", "Control", p.name) for p in lowered.params if p.slot >= 0]
     info = bundle.lilv("lv2info")
     ports = re.findall(r"\tPort (\d+):\n(.*?)(?=\n\tPort |\Z)", info, re.S)
     listed = []
-    for index, text in ports:
+    for _, text in ports:
         kinds = re.findall(r"lv2core#(\w+)Port", text)
         direction = "Input" if "Input" in kinds else "Output"
         kind = next(k for k in kinds if k not in ("Input", "Output"))
@@ -186,26 +172,31 @@ def test_lv2info_lists_the_ports_the_export_made(name, bundles):
     assert [int(i) for i, _ in ports] == list(range(len(expected)))
     assert listed == expected
     assert sum(kind == "Audio" and d == "Input" for d, kind, _ in listed) == 1      # the input added here
-    assert sorted(HELD.get(name, {})) == sorted(p.name for p in lowered.inputs if p.kind == "cv")   # all held
+    assert sorted(HELD.get(bundle.name, {})) == sorted(p.name for p in lowered.inputs if p.kind == "cv")
 
 
-@pytest.mark.parametrize("name", PATCHES)
-def test_lv2apply_gives_the_python_render_rounded_to_float32(name, bundles):
-    bundle = bundles(name)
-    held = HELD.get(name, {})
+def _plays_the_python_render(bundle, held):
     got = bundle.apply(held)
     expected = bundle.render(held)
     assert np.abs(expected).max() > 1e-2                 # it sounds
     _same_float32(got, expected)
     if held:
         assert not np.array_equal(got, bundle.apply({}))  # what -c holds reaches the plugin
+    return got
+
+
+def _takes_a_control_as_run_set_sets_it(bundle, held, plain):
+    sets = [CONTROL[bundle.name]]
+    got = bundle.apply(held, sets)
+    _same_float32(got, bundle.render(held, sets))
+    assert not np.array_equal(got, plain)                # the control changed the sound
 
 
 @pytest.mark.parametrize("name", PATCHES)
-def test_a_control_set_by_lv2apply_is_run_with_set(name, bundles):
-    bundle = bundles(name)
+def test_lv2info_lists_it_and_lv2apply_plays_it_as_hapticgraph_does(name, tmp_path):
+    # one test a patch: one worker builds its bundle and compiles its kernel
+    bundle = Bundle(name, tmp_path)
     held = HELD.get(name, {})
-    sets = [CONTROL[name]]
-    got = bundle.apply(held, sets)
-    _same_float32(got, bundle.render(held, sets))
-    assert not np.array_equal(got, bundle.apply(held))   # the control changed the sound
+    _lists_the_ports_the_export_made(bundle)
+    plain = _plays_the_python_render(bundle, held)
+    _takes_a_control_as_run_set_sets_it(bundle, held, plain)
