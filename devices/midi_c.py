@@ -22,11 +22,12 @@ input); each block keeps its own channel.
 from dataclasses import dataclass
 
 from ..graph.c.drivers import Hosted
-from .mpe import MASTER_RANGE, MASTERS, MEMBER_RANGE, PLAYED, RPN_CONTROLS
+from .mpe import (BEND_RANGE, CONFIGURATION, DATA_MSB, LOWER, MASTER_RANGE, MASTERS, MEMBER_RANGE, NRPN_LSB, NRPN_MSB,
+                  PLAYED, RPN_CONTROLS, RPN_LSB, RPN_MSB, UPPER)
 from .voices import ALL_OFF, COLUMNS, SLIDE_CC
 
 QUEUE = 1024          # events given and not yet played, per instance
-MODES = {"off": 0, "lower": 1, "upper": 2, "auto": 3}
+MODES = {"off": 0, "lower": 1, "upper": 2, "auto": 3}     # a group's `mpe:`, as the C numbers it
 
 RUNTIME = r"""
 /* ---- MIDI: NAME_midi's events turned into the midi_note / midi_cc columns (hapticgraph.devices.midi_c) */
@@ -38,7 +39,7 @@ RUNTIME = r"""
 #define HG_SLIDE_CC @SLIDE_CC@
 #define HG_IS_ALL_OFF(c) (@ALL_OFF@)
 #define HG_IS_RPN(c) (@RPN@)
-enum { HG_GATE, HG_NOTE, HG_BEND, HG_VELOCITY, HG_PRESSURE, HG_SLIDE, HG_DETUNE, HG_COLUMNS };
+enum { @COLUMNS@, HG_COLUMNS };            /* a midi_note's columns, in devices/voices.py's order */
 static const int hg_masters[2] = {@MASTERS@};
 
 typedef struct { long long at; unsigned char b[3]; } hg_event;
@@ -185,10 +186,8 @@ typedef struct {
     double member_range[2], master_range[2], bend[16], pressure[16], slide[16];
 } hg_zones;
 
-static int hg_played(const hg_zones *z, int zone)
-{
-    return zone >= 0 && (z->mode == 3 || (z->mode == 1 && zone == 0) || (z->mode == 2 && zone == 1));
-}
+static const unsigned char hg_plays[4][2] = {@PLAYS@};     /* [mode][zone]: the zones each mode plays */
+static int hg_played(const hg_zones *z, int zone) { return zone >= 0 && hg_plays[z->mode][zone]; }
 static int hg_zone_of(const hg_zones *z, int c) { return hg_played(z, z->zone[c]) ? z->zone[c] : -1; }
 static int hg_is_master(const hg_zones *z, int c) { return (c == hg_masters[0] || c == hg_masters[1]) && z->zone[c] >= 0 && hg_masters[z->zone[c]] == c; }
 static double hg_own(const hg_zones *z, int c) { return hg_is_master(z, c) ? 0.0 : z->bend[c] * z->member_range[z->zone[c]]; }
@@ -207,7 +206,7 @@ static void hg_zones_reset(hg_zones *z)
 {
     int c;
     z->members[0] = z->members[1] = 0;
-    z->members[z->mode == 2 ? 1 : 0] = 15;
+    z->members[z->mode == @UPPER_MODE@ ? @UPPER@ : @LOWER@] = 15;
     z->member_range[0] = z->member_range[1] = HG_MEMBER_RANGE;
     z->master_range[0] = z->master_range[1] = HG_MASTER_RANGE;
     for (c = 0; c < 16; c++) { z->rpn_msb[c] = z->rpn_lsb[c] = -1; z->bend[c] = z->pressure[c] = 0.0; z->slide[c] = HG_MIDDLE; }
@@ -219,10 +218,10 @@ static void hg_zones_reset(hg_zones *z)
 static int hg_configure(hg_zones *z, const hg_msg *m, unsigned char *moved)
 {
     int c = hg_channel(m), number = m->b[1], value = m->b[2], k;
-    if (number == 99 || number == 98) { z->rpn_msb[c] = z->rpn_lsb[c] = -1; return 0; }
-    if (number == 101) { z->rpn_msb[c] = value; return 0; }
-    if (number == 100) { z->rpn_lsb[c] = value; return 0; }
-    if (z->rpn_msb[c] == 0 && z->rpn_lsb[c] == 6 && number == 6 && (c == hg_masters[0] || c == hg_masters[1])) {
+    if (number == @NRPN_MSB@ || number == @NRPN_LSB@) { z->rpn_msb[c] = z->rpn_lsb[c] = -1; return 0; }
+    if (number == @RPN_MSB@) { z->rpn_msb[c] = value; return 0; }
+    if (number == @RPN_LSB@) { z->rpn_lsb[c] = value; return 0; }
+    if (z->rpn_msb[c] == @CONFIGURATION_MSB@ && z->rpn_lsb[c] == @CONFIGURATION_LSB@ && number == @DATA_MSB@ && (c == hg_masters[0] || c == hg_masters[1])) {
         int zone = c == hg_masters[0] ? 0 : 1, other = 1 - zone, before[16];
         memcpy(before, z->zone, sizeof before);
         z->members[zone] = value < 15 ? value : 15;
@@ -234,10 +233,10 @@ static int hg_configure(hg_zones *z, const hg_msg *m, unsigned char *moved)
         for (k = 0; k < 16; k++) if (z->zone[k] != before[k]) { moved[k] = 1; hg_clear(z, k); }
         return 1;
     }
-    if (z->rpn_msb[c] == 0 && z->rpn_lsb[c] == 0 && z->zone[c] >= 0) {
+    if (z->rpn_msb[c] == @BEND_RANGE_MSB@ && z->rpn_lsb[c] == @BEND_RANGE_LSB@ && z->zone[c] >= 0) {
         double *ranges = hg_is_master(z, c) ? z->master_range : z->member_range;
         int zone = z->zone[c];
-        ranges[zone] = number == 6 ? (double)value : (double)(long long)ranges[zone] + value / 100.0;
+        ranges[zone] = number == @DATA_MSB@ ? (double)value : (double)(long long)ranges[zone] + value / 100.0;
         return 1;
     }
     return 0;
@@ -576,7 +575,15 @@ def runtime(notes, ccs, allocs, voices):
     for key, value in (("QUEUE", QUEUE), ("MEMBER_RANGE", repr(float(MEMBER_RANGE))),
                        ("MASTER_RANGE", repr(float(MASTER_RANGE))), ("SLIDE_CC", SLIDE_CC),
                        ("ALL_OFF", _c_set(ALL_OFF)), ("RPN", _c_set(RPN_CONTROLS)),
-                       ("MASTERS", ", ".join(map(str, MASTERS)))):
+                       ("MASTERS", ", ".join(map(str, MASTERS))),
+                       ("COLUMNS", ", ".join("HG_" + c.removeprefix("midi_").upper() for c in COLUMNS)),
+                       ("PLAYS", ", ".join("{" + ", ".join(str(int(z in PLAYED.get(mode, ()))) for z in (LOWER, UPPER)) + "}"
+                                           for mode in MODES)),
+                       ("UPPER_MODE", MODES["upper"]), ("UPPER", UPPER), ("LOWER", LOWER),
+                       ("NRPN_MSB", NRPN_MSB), ("NRPN_LSB", NRPN_LSB), ("RPN_MSB", RPN_MSB), ("RPN_LSB", RPN_LSB),
+                       ("DATA_MSB", DATA_MSB), ("CONFIGURATION_MSB", CONFIGURATION[0]),
+                       ("CONFIGURATION_LSB", CONFIGURATION[1]), ("BEND_RANGE_MSB", BEND_RANGE[0]),
+                       ("BEND_RANGE_LSB", BEND_RANGE[1])):
         text = text.replace(f"@{key}@", str(value))
     sizes = f"#define HG_N_NOTES {notes}\n#define HG_N_CCS {ccs}\n#define HG_N_ALLOCS {allocs}\n#define HG_VOICES {max(1, voices)}\n"
     return sizes + text
@@ -638,9 +645,5 @@ def midi_hosted(patch, ext_columns):
                   fill="hg_midi_fill(&s->midi, s->t, m, s->hcol);",
                   give="return hg_midi_give(&s->midi, s->t + (offset > 0 ? offset : 0), bytes, len);")
 
-
-assert tuple(COLUMNS) == ("midi_gate", "midi_note", "midi_bend", "midi_velocity", "midi_pressure", "midi_slide",
-                          "midi_detune"), "the C enum of columns follows devices/voices.py's order"
-assert PLAYED == {"lower": (0,), "upper": (1,), "auto": (0, 1)}, "hg_played follows devices/mpe.py's zones"
 
 __all__ = ["QUEUE", "midi_hosted", "runtime"]
