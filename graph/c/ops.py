@@ -126,6 +126,20 @@ def truth(v):
     return text(v)
 
 
+def condition(v):
+    """C text of an `if`'s or a `while`'s test: its truth without an outer pair of parentheses that
+    wraps it whole (`if (x == 0)`: clang warns of `if ((x == 0))` as of a mistyped assignment)."""
+    c = truth(v)
+    if not (c.startswith("(") and c.endswith(")")) or '"' in c or "'" in c:
+        return c
+    depth = 0
+    for k, ch in enumerate(c):
+        depth += {"(": 1, ")": -1}.get(ch, 0)
+        if depth == 0:
+            return c[1:-1] if k == len(c) - 1 else c
+    return c
+
+
 def boolean(op, values):
     """a and b / a or b of flags (Python gives back an operand: of numbers that is refused)."""
     is_and = isinstance(op, ast.And)
@@ -232,5 +246,5 @@ def is_math(fn):
     return fn in MATH or fn in MATH_INT or fn in MATH_FLAG
 
 
-__all__ = ["BUILTINS", "binop", "boolean", "builtin", "compare", "fold", "if_else", "is_math", "math_call", "truth",
+__all__ = ["BUILTINS", "binop", "boolean", "builtin", "compare", "condition", "fold", "if_else", "is_math", "math_call", "truth",
            "unary", "SCALARS"]

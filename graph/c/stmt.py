@@ -214,7 +214,7 @@ class FunctionTranslator(ExprTranslator):
         if test.is_known:
             return self.block(node.body if test.known else node.orelse)
         self.materialize(node.body + node.orelse)
-        self.emit(f"if ({ops.truth(test)}) {{")
+        self.emit(f"if ({ops.condition(test)}) {{")
         self.inside(node.body)
         if node.orelse:
             self.emit("} else {")
@@ -288,7 +288,7 @@ class FunctionTranslator(ExprTranslator):
         test = self.expr(node.test)
         if test.is_known and not test.known:
             return
-        self.emit(f"while ({ops.truth(test)}) {{")
+        self.emit(f"while ({ops.condition(test)}) {{")
         self.inside(node.body)
         self.emit("}")
 
