@@ -118,7 +118,8 @@ class Bundle:
 
     def apply(self, held, sets=()):
         """lv2apply's output over the WAV file (frames × channels, float32 values as float64), the
-        device columns `held` ({"DEVICE.COLUMN": value}) and the parameters `sets` ({"BLOCK.PARAM": value})."""
+        device columns `held` ({"DEVICE.COLUMN": value}) and the parameters `sets` ((BLOCK.PARAM, value)
+        pairs) given by -c."""
         out = self.folder / "out.wav"
         args = ["-i", str(self.folder / "input.wav"), "-o", str(out)]
         for name, value in [*held.items(), *sets]:
@@ -148,10 +149,6 @@ def _same_float32(got, expected):
     assert got.shape == expected.shape
     assert np.array_equal(got, expected.astype(np.float32).astype(np.float64))
     assert np.all(np.abs(got - expected) <= np.maximum(np.abs(expected) * 2.0 ** -24, 2.0 ** -150))
-
-
-def test_every_patch_played_is_named_here():
-    assert sorted(CONTROL) == PATCHES and set(INTO) <= set(HELD) <= set(PATCHES)
 
 
 def _lists_the_ports_the_export_made(bundle):
@@ -200,3 +197,7 @@ def test_lv2info_lists_it_and_lv2apply_plays_it_as_hapticgraph_does(name, tmp_pa
     _lists_the_ports_the_export_made(bundle)
     plain = _plays_the_python_render(bundle, held)
     _takes_a_control_as_run_set_sets_it(bundle, held, plain)
+
+
+def test_every_patch_played_is_named_here():
+    assert sorted(CONTROL) == PATCHES and set(INTO) <= set(HELD) <= set(PATCHES)
