@@ -57,6 +57,7 @@ from ..graph.engine import Driver
 from .errors import DeviceError
 from .evdev_layout import EV_ABS, EV_KEY
 from .limits import block_force, force_limit
+from .velocity import VelocityEstimate
 
 FULL = 0x7FFF                   # an FF level's full scale (linux/input.h: __s16)
 GAIN_FULL = 0xFFFF
@@ -189,7 +190,7 @@ class EvdevDriver(Driver):
             self.is_open = True
         self.rate = float(rate)
         self.lost, self.halted, self.level, self.written_at, self.played_at = None, False, 0.0, None, 0
-        self.x_prev, self.v = None, 0.0
+        self.velocity = VelocityEstimate(VELOCITY_CUTOFF)
         if self.forces:
             try:
                 self._start_effect()
@@ -296,14 +297,12 @@ class EvdevDriver(Driver):
     # -- the block exchange
     def fill(self, t0, ext):
         n = ext.shape[0]
-        x = self.row[0]
-        if self.x_prev is not None and n:
-            dt = n / self.rate
-            alpha = 1.0 - math.exp(-2.0 * math.pi * VELOCITY_CUTOFF * dt)
-            self.v += alpha * ((x - self.x_prev) / dt - self.v)
-        self.x_prev = x
+        if n:
+            self.velocity.step(self.row[0], n / self.rate)
+        else:
+            self.velocity.x_prev = self.row[0]
         ext[:] = self.row
-        ext[:, 1] = self.v
+        ext[:, 1] = self.velocity.v
 
     def send(self, t0, force):
         f = block_force(force, self.max_force)

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .velocity import VelocityEstimate
+
 HAT_DIRECTIONS = ((0, -1), (1, -1), (1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1))   # up, clockwise
 DEFAULT_INTERVAL = 0.008       # s: USB full-speed HID devices are polled at 125 Hz unless they say
 VELOCITY_CUTOFF = 20.0         # Hz: smoothing of the x velocity estimate (the gamepad profile's)
@@ -90,7 +92,7 @@ class DescriptorDecoder:
         self.numbered = layout.descriptor.numbered
         self.sizes = layout.descriptor.report_sizes
         self.interval = layout.input.interval
-        self.alpha = 1.0 - math.exp(-2.0 * math.pi * VELOCITY_CUTOFF * self.interval)
+        self.velocity = VelocityEstimate(VELOCITY_CUTOFF, self.interval)
         self.width = 2 + len(layout.ports)
         column = {p: 2 + k for k, p in enumerate(layout.ports)}
         self.by_report = {}
@@ -104,8 +106,7 @@ class DescriptorDecoder:
     def reset(self):
         self.row = np.zeros(self.width)
         self.row[self.hats] = math.nan          # a hat is centred until it says otherwise
-        self.x_prev = None
-        self.v = 0.0
+        self.velocity.reset()
 
     def decode(self, report, out):
         """Decode a report (with its id byte if numbered) into `out`; False if it is not one of ours."""
@@ -139,11 +140,7 @@ class DescriptorDecoder:
                 self._hat(i, raw, cols)
             else:
                 row[cols[0]] = axis_value(i, raw)
-        x = row[0]
-        raw_v = 0.0 if self.x_prev is None else (x - self.x_prev) / self.interval
-        self.v += self.alpha * (raw_v - self.v)
-        self.x_prev = x
-        row[1] = self.v
+        row[1] = self.velocity.step(row[0])
         out[:] = row
         return True
 
@@ -164,16 +161,12 @@ class DescriptorDecoder:
         row = self.row
         moved = bool(self.relative) and bool(np.any(row[self.relative]))
         row[self.relative] = 0.0
-        if self.x_prev is not None and self.v != 0.0:
-            self.v += self.alpha * (0.0 - self.v)
-            if abs(self.v) < 1e-9:
-                self.v = 0.0
-            moved = True
+        moved = self.velocity.decay() or moved
         if not moved:
             return False
         if self.layout.position is not None and self.layout.position.relative:
-            self.x_prev = row[0]
-        row[1] = self.v
+            self.velocity.x_prev = row[0]
+        row[1] = self.velocity.v
         out[:] = row
         return True
 

@@ -12,11 +12,12 @@ Velocity estimate (profile `velocity: estimate`)
     without a report the estimator takes a step with no motion (v_raw = 0), and again every
     two intervals, so v decays to 0 (exactly 0 below 1 nm/s). The first report gives v_raw = 0.
 """
-import math
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+
+from .velocity import VelocityEstimate
 
 
 @dataclass(frozen=True)
@@ -194,16 +195,14 @@ class Decoder:
         self.pos = names.index(inp.position) if inp.position else None
         self.vel = names.index(inp.velocity) if inp.velocity not in (None, "estimate") else None
         self.estimate = self.pos is not None and self.vel is None
-        fc = inp.velocity_cutoff or 0.0
-        self.alpha = 1.0 - math.exp(-2.0 * math.pi * fc * inp.interval) if fc > 0 else 1.0
+        self.velocity = VelocityEstimate(inp.velocity_cutoff or 0.0, inp.interval)
         self.interval = inp.interval
         self.width = 2 + len(inp.axes) + len(inp.buttons)
         self.reset()
 
     def reset(self):
         self.values = np.zeros(len(self.axes))
-        self.x_prev = None
-        self.v = 0.0
+        self.velocity.reset()
         self.row = np.zeros(self.width)
 
     def decode(self, report, out):
@@ -216,14 +215,15 @@ class Decoder:
             value = f.value(data)
             values[k] = values[k] + value if f.relative else value
         x = values[self.pos] if self.pos is not None else 0.0
+        velocity = self.velocity
         if self.vel is not None:
-            self.v = values[self.vel]
+            velocity.v, velocity.x_prev = values[self.vel], x
         elif self.estimate:
-            raw = 0.0 if self.x_prev is None else (x - self.x_prev) / self.interval
-            self.v += self.alpha * (raw - self.v)
-        self.x_prev = x
+            velocity.step(x)
+        else:
+            velocity.x_prev = x
         row = self.row
-        row[0], row[1] = x, self.v
+        row[0], row[1] = x, velocity.v
         row[2:2 + len(values)] = values
         base = 2 + len(values)
         for k, f in enumerate(self.buttons):
@@ -234,12 +234,9 @@ class Decoder:
     def still(self, out):
         """A step with no motion (for report-on-change devices that went quiet); False if the
         velocity is not estimated (nothing changes then)."""
-        if not self.estimate or self.x_prev is None or self.v == 0.0:
+        if not self.estimate or not self.velocity.decay():
             return False
-        self.v += self.alpha * (0.0 - self.v)
-        if abs(self.v) < 1e-9:          # m/s: at rest (and no more steps until it moves)
-            self.v = 0.0
-        self.row[1] = self.v
+        self.row[1] = self.velocity.v
         out[:] = self.row
         return True
 
