@@ -19,6 +19,7 @@ call, into prefaulted buffers.
   seconds of each side are checked to be the same float64 bits (channel 0) before anything is timed.
 
     python benchmarks/export_speed.py --reps 5 --cc clang     # ~2 min; --cc gcc for GCC
+    python benchmarks/export_speed.py --reps 5 --cc gcc --cflags=-funroll-loops
 """
 import argparse
 import os
@@ -113,14 +114,14 @@ def device_columns(path, lowered, samples):
     return np.concatenate(rows)[:samples]
 
 
-def build(path, folder, samples, cc):
+def build(path, folder, samples, cc, extra=()):
     """The exported C of `path` with the timing driver; (command, its inputs' file or '-')."""
     name = "bench"
     lowered = export_c(hapticgraph.load(path), name)
     write_c(lowered, folder)
     (folder / "driver.c").write_text(DRIVER.format(name=name, NAME=name.upper()), encoding="utf-8")
     exe = folder / "driver"
-    subprocess.run(cc + list(FLAGS) + [str(folder / "driver.c"), str(folder / f"{name}.c"), "-I", str(folder),
+    subprocess.run(cc + list(FLAGS) + list(extra) + [str(folder / "driver.c"), str(folder / f"{name}.c"), "-I", str(folder),
                                                "-o", str(exe), "-lm"], check=True)
     inputs = device_columns(path, lowered, samples)
     source = "-"
@@ -139,6 +140,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--reps", type=int, default=7)
     ap.add_argument("--cc", default=None, help="the C compiler (default: $CC, else cc)")
+    ap.add_argument("--cflags", default="", help="flags added to the C's (e.g. -funroll-loops for GCC)")
     args = ap.parse_args(argv)
     cc = [args.cc] if args.cc else compiler()
     load = [os.getloadavg()[0]]
@@ -151,7 +153,7 @@ def main(argv=None):
             samples = int(round(seconds * hapticgraph.load(path).rate))
             folder = tmp / pathlib.Path(path).stem
             folder.mkdir()
-            command = build(path, folder, samples, cc)
+            command = build(path, folder, samples, cc, args.cflags.split())
             numba_s, numba_out = kernel_run(path, samples)           # compiles; checked, not timed
             c_s, c_out = c_run(command)
             same = np.array_equal(numba_out.view(np.uint64), c_out.view(np.uint64))
@@ -166,7 +168,7 @@ def main(argv=None):
             lines.append(f"| {label} | {seconds:g} s at {samples / seconds:g} Hz | {samples / nb / 1e6:.3g} / "
                          f"{samples / c / 1e6:.3g} | **{nb / c:.2f}×** | {agreement} |")
             print(lines[-1], flush=True)
-    print(f"{cc[0]}; load (1 min) {min(load):.1f}–{max(load):.1f}, {args.reps} repetitions, medians")
+    print(f"{' '.join(cc + args.cflags.split())}; load (1 min) {min(load):.1f}–{max(load):.1f}, {args.reps} repetitions, medians")
     return 0
 
 
