@@ -76,6 +76,7 @@ def translate_kernel(prog, lib, fixed=frozenset()):
     params = kernel_parameters(prog, node)
     returns = Returns()
     tr = FunctionTranslator(lib, node, KERNEL_FILE, names, params, returns)
+    tr.unroll_inner = False                 # the sample loop: one sample after another, as numba runs it
     first = len(params) - len(prog.buffer_nodes) - len(prog.array_nodes)
     lib.fixed_rings = (tr, frozenset(cname(params[first + k][0]) for k in fixed))
     decls, body = tr.translate()

@@ -31,6 +31,8 @@ class FunctionTranslator(ExprTranslator):
     """One function's C body. `params`: [(name, Val)] (a known value is bound, the others are C
     parameters); `mode` says what `return`, `yield` and the end of the body become."""
 
+    unroll_inner = True      # an innermost range loop is marked HG_UNROLL (not the kernel's sample loop)
+
     def __init__(self, lib, node, file, names, params, mode):
         super().__init__(lib, file, names)
         self.node, self.params, self.mode = node, params, mode
@@ -253,6 +255,8 @@ class FunctionTranslator(ExprTranslator):
         counter = cname(var) if direct else self.fresh("i", start.nonneg and step.known > 0)
         self.declare(var, "i", start.nonneg and step.known > 0)
         less = "<" if step.known > 0 else ">"
+        if self.unroll_inner and not any(isinstance(n, (ast.For, ast.While)) for b in node.body for n in ast.walk(b)):
+            self.emit("HG_UNROLL")
         self.emit(f"for ({counter} = {text(start)}; {counter} {less} {text(stop)}; {counter} += {text(step)}) {{")
         if not direct:
             self.emit(f"    {cname(var)} = {counter};")
