@@ -6,6 +6,7 @@ at one sample (a note-off and a note-on, a restrike, all-notes-off, an MPE Confi
 among notes), steals, bends, pressures, slides, RPN and NRPN selections, events at chunk and call
 boundaries. The C, given each call's events and those of the sample after it, gives the bits of
 `hapticgraph render` of the same events written as a MIDI file, at two block sizes of the Python run."""
+import re
 import subprocess
 
 import mido
@@ -15,6 +16,8 @@ import pytest
 import hapticgraph
 from hapticgraph.devices.midi import read_midi_file, write_midi_file
 from hapticgraph.export.compiler import build
+from hapticgraph.graph.patch import load
+from project_env import ROOT
 
 RATE = 48000
 SAMPLES = 4800
@@ -143,3 +146,17 @@ def test_what_fuzz_midi_takes_and_refuses(builds):
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split("\n")
     assert out[0] == "0 0 -2 -2 -2"
     assert out[1] == "1 1024"
+
+
+def test_one_export_of_poly_strings_plays_its_file_at_48_and_96_khz(c_export, same_bits):
+    """Exported at the patch's 44.1 kHz, run at other rates: its file's events at those rates give
+    `render` of the patch at that rate (its voices' delays derived again in C), bit for bit."""
+    path = ROOT / "patches" / "poly_strings.yaml"
+    built = c_export(path)
+    text = path.read_text(encoding="utf-8")
+    for rate in (48000, 96000):
+        patch = load(path, text=re.sub(r"(?m)^rate: .*$", f"rate: {rate}", text))
+        events = read_midi_file(ROOT / "patches" / "poly_chords.mid", rate)
+        expected = hapticgraph.render(patch, 0.5).audio
+        assert np.abs(expected).max() > 0.1
+        assert same_bits(built.run(rate, len(expected), block=512, midi=events), expected)
