@@ -15,7 +15,7 @@ import pytest
 
 import hapticgraph
 from hapticgraph.devices.midi import read_midi_file, write_midi_file
-from hapticgraph.export.compiler import build
+from hapticgraph.export.compiler import build, compiler
 from hapticgraph.graph.patch import load
 from project_env import ROOT
 
@@ -160,3 +160,55 @@ def test_one_export_of_poly_strings_plays_its_file_at_48_and_96_khz(c_export, sa
         expected = hapticgraph.render(patch, 0.5).audio
         assert np.abs(expected).max() > 0.1
         assert same_bits(built.run(rate, len(expected), block=512, midi=events), expected)
+
+
+GARBAGE = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "fuzz_auto.h"
+/* bytes that are and are not MIDI (NULL, short, data bytes over 127, system messages, RPN and NRPN
+   selections), offsets before, inside and far past the call, calls of 1 to 700 samples, resets */
+int main(int argc, char **argv)
+{
+    double *out[FUZZ_AUTO_N_OUTPUTS + 1];
+    int c, k, r, codes[3] = {0, 0, 0};
+    fuzz_auto *s = fuzz_auto_new(48000.0);
+    srand((unsigned)atoi(argv[1]));
+    for (c = 0; c < FUZZ_AUTO_N_OUTPUTS; c++) out[c] = calloc(700, sizeof(double));
+    for (k = 0; k < 3000; k++) {
+        int n = 1 + rand() % 700, m = rand() % 40;
+        for (r = 0; r < m; r++) {
+            unsigned char b[3];
+            b[0] = (unsigned char)(rand() % 3 ? 0x80 + rand() % 0x70 : rand() % 256);
+            b[1] = (unsigned char)(rand() % 8 ? rand() % 128 : rand() % 256);
+            b[2] = (unsigned char)(rand() % 8 ? rand() % 128 : rand() % 256);
+            if (rand() % 3 == 0) { b[0] = (unsigned char)(0xB0 | rand() % 16); b[1] = (unsigned char)(98 + rand() % 4); }
+            codes[-fuzz_auto_midi(s, rand() % 2000 - 100, rand() % 20 ? b : NULL, rand() % 4)]++;
+        }
+        fuzz_auto_process(s, NULL, out, n);
+        if (rand() % 200 == 0) fuzz_auto_reset(s);
+    }
+    printf("%d %d %d\n", codes[0], codes[1], codes[2]);
+    fuzz_auto_free(s);
+    for (c = 0; c < FUZZ_AUTO_N_OUTPUTS; c++) free(out[c]);
+    return 0;
+}
+"""
+
+
+def test_garbage_midi_under_address_and_undefined_behaviour_sanitizers(builds, tmp_path):
+    """The MIDI driver in C takes whatever a host gives it: 3,000 calls with 60,000 random byte
+    strings, built with -fsanitize=address,undefined (any report fails the run)."""
+    _, built = builds["auto"]
+    folder = built.exe.parent
+    (tmp_path / "fuzz_auto.h").write_text((folder / "fuzz_auto.h").read_text(encoding="utf-8"), encoding="utf-8")
+    (tmp_path / "garbage.c").write_text(GARBAGE, encoding="utf-8")
+    exe = tmp_path / "garbage"
+    subprocess.run(compiler() + ["-std=c99", "-g", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+                                 str(tmp_path / "garbage.c"), str(folder / "fuzz_auto.c"), "-I", str(tmp_path),
+                                 "-o", str(exe), "-lm"], check=True, capture_output=True, timeout=300)
+    for seed in (1, 2):
+        proc = subprocess.run([str(exe), str(seed)], capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        queued, full, refused = map(int, proc.stdout.split())
+        assert queued > 10000 and refused > 10000
