@@ -119,7 +119,7 @@ class Built:
 
 
 def _c_maker(tmp_path):
-    def make(patch, name=None, overrides=()):
+    def make(patch, name=None, overrides=(), extra=()):
         if isinstance(patch, (str, os.PathLike)):
             patch = load(patch, overrides=overrides)
         name = name or export_name(patch.file)
@@ -129,14 +129,14 @@ def _c_maker(tmp_path):
         driver = folder / "driver.c"
         driver.write_text(DRIVER.format(name=name, NAME=name.upper()), encoding="utf-8")
         exe = folder / "driver"
-        build([driver, folder / f"{name}.c"], exe, extra=["-I", str(folder)])
+        build([driver, folder / f"{name}.c"], exe, extra=["-I", str(folder), *extra])
         return Built(exe, lowered)
     return make
 
 
 @pytest.fixture
 def c_export(tmp_path):
-    """c_export(patch or path, name=None, overrides=()) -> Built."""
+    """c_export(patch or path, name=None, overrides=(), extra=()) -> Built (`extra`: more compiler flags)."""
     return _c_maker(tmp_path)
 
 
