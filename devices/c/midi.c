@@ -372,12 +372,13 @@ static void hg_control(hg_alloc *a, const hg_msg *m)
 }
 
 /* every event of absolute sample `at` (n messages in r->msg) and the ends due there; the voices
-   whose gate dips at the sample before (into dips), their count */
+   whose gate dips at the sample before (into dips, each once: at most a->count), their count */
 static int hg_alloc_at(hg_alloc *a, hg_scratch *r, int n, long long at, int *dips)
 {
     double before[HG_VOICES];
+    unsigned char dipped[HG_VOICES];        /* a voice stolen twice at one sample dips once */
     int v, k, first, n_dips = 0;
-    for (v = 0; v < a->count; v++) before[v] = a->rows[v][HG_GATE];
+    for (v = 0; v < a->count; v++) { before[v] = a->rows[v][HG_GATE]; dipped[v] = 0; }
     for (;;) {                              /* the ends due, in the order they were set */
         for (first = -1, v = 0; v < a->count; v++)
             if (a->end[v] >= 0 && a->end[v] <= at && (first < 0 || a->end_seq[v] < a->end_seq[first])) first = v;
@@ -399,7 +400,7 @@ static int hg_alloc_at(hg_alloc *a, hg_scratch *r, int n, long long at, int *dip
         a->held[v] = 1;
         a->since[v] = a->clock++;
         a->end[v] = -1;
-        if (before[v] > 0.0) dips[n_dips++] = v;
+        if (before[v] > 0.0 && !dipped[v]) { dipped[v] = 1; dips[n_dips++] = v; }
         if (r->is_short[note]) { a->end[v] = at + 1; a->end_seq[v] = a->seq++; }
     }
     for (k = 0; k < n; k++) hg_control(a, &r->msg[k]);
