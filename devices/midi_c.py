@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from importlib import resources
 
 from ..graph.c.drivers import Hosted
+from .midi import ControlTap, NoteTap
 from .mpe import (BEND_RANGE, CONFIGURATION, DATA_MSB, LOWER, MASTER_RANGE, MASTERS, MEMBER_RANGE, NRPN_LSB, NRPN_MSB,
                   PLAYED, RPN_CONTROLS, RPN_LSB, RPN_MSB, UPPER)
 from .voices import ALL_OFF, COLUMNS, SLIDE_CC
@@ -78,24 +79,27 @@ def midi_hosted(patch, ext_columns):
     where = {}
     for k, (device, column) in enumerate(ext_columns):
         where.setdefault(device, k)
-    notes, ccs, groups = [], [], {}
+    notes, ccs, groups, hosted = [], [], {}, set()
     for name in patch.order:
         inst = patch.blocks[name]
-        kind = inst.cls.type_name
-        if kind not in ("midi_note", "midi_cc") or name not in where:
+        spec = (patch.devices or {}).get(inst.values.get("device"))
+        taken = tuple(e.attr for e in inst.cls.externals)       # the columns its tap writes in Python
+        if name not in where or not isinstance(spec, dict) or spec.get("driver") != "midi":
             continue
-        if kind == "midi_cc":
+        if taken == ControlTap.columns:
             ccs.append((_channel(inst), int(inst.values.get("number", 1)), where[name]))
-        elif int(inst.values.get("voice", 0)) > 0:
+        elif taken == NoteTap.columns and int(inst.values.get("voice", 0)) > 0:
             key = (inst.values.get("device"), _channel(inst), int(inst.values.get("voices", 1)), inst.values.get("mpe", "off"))
             group = groups.setdefault(key, _Group(*key, {}))
             group.voices[int(inst.values["voice"]) - 1] = where[name]
-        else:
+        elif taken == NoteTap.columns:
             notes.append((_channel(inst), where[name]))
-    if not (notes or ccs or groups):
+        else:
+            continue
+        hosted.add(name)
+    if not hosted:
         return None
-    columns = {(device, column) for device, column in ext_columns if device in {
-        n for n in patch.order if patch.blocks[n].cls.type_name in ("midi_note", "midi_cc")}}
+    columns = {(device, column) for device, column in ext_columns if device in hosted}
     setup = []
     for k, (channel, col) in enumerate(notes):
         setup += [f"s->midi.notes[{k}].channel = {channel};", f"s->midi.notes[{k}].col = {col};"]
