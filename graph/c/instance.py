@@ -79,7 +79,6 @@ def process(plan):
 
 def _chunked(plan):
     n, nout = plan.name, len(plan.outputs)
-    forces = [c for c, p in enumerate(plan.outputs) if p.kind == "cv"]
     cols = [f"s->hcol[{k}]" if j is None else f"in[{j}] + done" for k, j in enumerate(plan.ext_in)]
     lines = [f"int {n}_process({n} *s, const double *const *in, double *const *out, int n)", "{",
              f"    const double *col[{max(1, len(cols))}];", f"    double *o[{max(1, nout)}];",
@@ -89,9 +88,16 @@ def _chunked(plan):
     lines += [f"        col[{k}] = {c};" for k, c in enumerate(cols)]
     lines += [f"        for (c = 0; c < {nout}; c++) o[c] = out[c] + done;",
               "        r = hg_run(s, (const double *const *)col, o, m);", "        if (code == 0) code = r;", "    }"]
-    if forces:
-        lines.append("    if (code != 0) for (k = 0; k < n; k++) { " + " ".join(f"out[{c}][k] = 0.0;" for c in forces) + " }")
+    lines += _zero_forces(plan, "0.0")
     return "\n".join(lines + ["    return code;", "}", ""])
+
+
+def _zero_forces(plan, zero):
+    """After a call of n samples in chunks: on a fault, every force column of the call is `zero`."""
+    forces = [c for c, p in enumerate(plan.outputs) if p.kind == "cv"]
+    if not forces:
+        return []
+    return ["    if (code != 0) for (k = 0; k < n; k++) { " + " ".join(f"out[{c}][k] = {zero};" for c in forces) + " }"]
 
 
 def midi(plan):
@@ -122,14 +128,11 @@ def _run(plan, signature):
     return "\n".join(lines)
 
 
-
-
 def process_float(plan):
     """NAME_process_float: float columns converted to double through the instance's buffers,
     CHUNK samples at a time, NAME_process over them, each output rounded once to float; on a
     fault the forces of the whole call are zero, as NAME_process's."""
     n, nin, nout = plan.name, len(plan.inputs), len(plan.outputs)
-    forces = [c for c, p in enumerate(plan.outputs) if p.kind == "cv"]
     lines = [f"int {n}_process_float({n} *s, const float *const *in, float *const *out, int n)", "{",
              f"    double *pin[{max(1, nin)}], *pout[{max(1, nout)}];", "    int done, m, k, c, r, code = 0;",
              f"    for (c = 0; c < {nin}; c++) pin[c] = s->fin[c];",
@@ -139,9 +142,7 @@ def process_float(plan):
              f"        r = {n}_process(s, (const double *const *)pin, pout, m);", "        if (code == 0) code = r;",
              f"        for (c = 0; c < {nout}; c++) for (k = 0; k < m; k++) out[c][done + k] = (float)s->fout[c][k];",
              "    }"]
-    if forces:
-        lines.append(f"    if (code != 0) for (k = 0; k < n; k++) {{ "
-                     + " ".join(f"out[{c}][k] = 0.0f;" for c in forces) + " }")
+    lines += _zero_forces(plan, "0.0f")
     lines += ["    (void)pin; (void)pout;", "    return code;", "}", ""]
     return "\n".join(lines)
 
